@@ -1,0 +1,227 @@
+// Shared prelude of every fluid kernel: the batch parameters, the bindings of the field bind
+// group and the index/sampling helpers of the staggered (MAC) grid.
+//
+// Buffer shapes (environment index outermost, row-major, x fastest):
+//   u faces  [E][ny][nx+1]  at x = i dx,        y = (j + 1/2) dy
+//   v faces  [E][ny+1][nx]  at x = (i + 1/2) dx, y = j dy
+//   cells    [E][ny][nx]    at x = (i + 1/2) dx, y = (j + 1/2) dy   (p, body)
+//   modes    [E][ny][nx]    phat[e][k][i]: y-cosine mode k of column i
+//   inlet    [E][substeps]  inlet centreline velocity U (m/s) at the end of each substep
+//   poisson  [ny*ny | ny*nx | ny*nx]  Q (orthonormal DCT-II, Q[j*ny + k]), Thomas c', 1/m
+// Boundary ghosts: walls (y = 0, H) no-slip (u odd, v = 0 on the wall faces); inlet (x = 0)
+// Dirichlet u, v = 0 (v odd); outlet (x = L) zero-gradient velocity, p = 0 on the face.
+// Mirrors `src/gpu/params.rs` (GpuParams, SubstepUniform).
+
+struct Params {
+    nx: u32,
+    ny: u32,
+    n_env: u32,
+    substeps: u32,
+    dx: f32,
+    dy: f32,
+    dt: f32,
+    nu: f32,
+    rho: f32,
+    height: f32,
+    pad0: f32,
+    pad1: f32,
+}
+
+struct Substep {
+    index: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+@group(0) @binding(0) var<uniform> P: Params;
+@group(0) @binding(1) var<uniform> S: Substep;
+@group(0) @binding(2) var<storage, read_write> u_in: array<f32>;
+@group(0) @binding(3) var<storage, read_write> v_in: array<f32>;
+@group(0) @binding(4) var<storage, read_write> u_out: array<f32>;
+@group(0) @binding(5) var<storage, read_write> v_out: array<f32>;
+@group(0) @binding(6) var<storage, read_write> u_hat: array<f32>;
+@group(0) @binding(7) var<storage, read_write> v_hat: array<f32>;
+@group(0) @binding(8) var<storage, read_write> p: array<f32>;
+@group(0) @binding(9) var<storage, read_write> phat: array<f32>;
+@group(0) @binding(10) var<storage, read_write> body: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read_write> inlet: array<f32>;
+@group(0) @binding(12) var<storage, read_write> poisson: array<f32>;
+@group(0) @binding(13) var<storage, read_write> divstar: array<f32>;
+@group(0) @binding(14) var<storage, read_write> colstats: array<vec4<f32>>;
+@group(0) @binding(15) var<storage, read_write> health: array<vec4<f32>>;
+
+// What a sampler reads: the input velocity, the MacCormack predictor, or the input velocity
+// after one explicit diffusion step, w = u + dt nu lap u (evaluated on the fly).
+const SRC_IN: u32 = 0u;
+const SRC_HAT: u32 = 1u;
+const SRC_DIFFUSED: u32 = 2u;
+
+fn u_idx(e: u32, i: u32, j: u32) -> u32 {
+    return (e * P.ny + j) * (P.nx + 1u) + i;
+}
+
+fn v_idx(e: u32, i: u32, j: u32) -> u32 {
+    return (e * (P.ny + 1u) + j) * P.nx + i;
+}
+
+fn c_idx(e: u32, i: u32, j: u32) -> u32 {
+    return (e * P.ny + j) * P.nx + i;
+}
+
+// Ghost mapping of a u face index: (stored i, stored j, sign). i is clamped to [0, nx]; rows -1
+// and ny mirror with a sign change (no-slip: u = 0 on the wall).
+fn ghost_u(i: i32, j: i32) -> vec3<i32> {
+    let ic = clamp(i, 0, i32(P.nx));
+    if (j < 0) {
+        return vec3<i32>(ic, 0, -1);
+    }
+    if (j >= i32(P.ny)) {
+        return vec3<i32>(ic, i32(P.ny) - 1, -1);
+    }
+    return vec3<i32>(ic, j, 1);
+}
+
+// Ghost mapping of a v face index: column -1 mirrors with a sign change (v = 0 at the inlet),
+// column nx repeats column nx-1 (zero gradient at the outlet); j clamped to [0, ny].
+fn ghost_v(i: i32, j: i32) -> vec3<i32> {
+    let jc = clamp(j, 0, i32(P.ny));
+    if (i < 0) {
+        return vec3<i32>(0, jc, -1);
+    }
+    return vec3<i32>(min(i, i32(P.nx) - 1), jc, 1);
+}
+
+fn fetch_u_in(e: u32, i: i32, j: i32) -> f32 {
+    let m = ghost_u(i, j);
+    return f32(m.z) * u_in[u_idx(e, u32(m.x), u32(m.y))];
+}
+
+fn fetch_v_in(e: u32, i: i32, j: i32) -> f32 {
+    let m = ghost_v(i, j);
+    return f32(m.z) * v_in[v_idx(e, u32(m.x), u32(m.y))];
+}
+
+// dt nu lap u at the stored u face (i, j) of the input field.
+fn diffusion_u(e: u32, i: i32, j: i32) -> f32 {
+    let c = fetch_u_in(e, i, j);
+    let lx = fetch_u_in(e, i + 1, j) + fetch_u_in(e, i - 1, j) - 2.0 * c;
+    let ly = fetch_u_in(e, i, j + 1) + fetch_u_in(e, i, j - 1) - 2.0 * c;
+    return P.dt * P.nu * (lx / (P.dx * P.dx) + ly / (P.dy * P.dy));
+}
+
+fn diffusion_v(e: u32, i: i32, j: i32) -> f32 {
+    let c = fetch_v_in(e, i, j);
+    let lx = fetch_v_in(e, i + 1, j) + fetch_v_in(e, i - 1, j) - 2.0 * c;
+    let ly = fetch_v_in(e, i, j + 1) + fetch_v_in(e, i, j - 1) - 2.0 * c;
+    return P.dt * P.nu * (lx / (P.dx * P.dx) + ly / (P.dy * P.dy));
+}
+
+// Value at a stored u face. Diffused: boundary faces (the inlet) keep their value.
+fn value_u(src: u32, e: u32, i: i32, j: i32) -> f32 {
+    let k = u_idx(e, u32(i), u32(j));
+    if (src == SRC_HAT) {
+        return u_hat[k];
+    }
+    if (src == SRC_DIFFUSED && i > 0) {
+        return u_in[k] + diffusion_u(e, i, j);
+    }
+    return u_in[k];
+}
+
+// Value at a stored v face. Diffused: wall faces stay zero.
+fn value_v(src: u32, e: u32, i: i32, j: i32) -> f32 {
+    let k = v_idx(e, u32(i), u32(j));
+    if (src == SRC_HAT) {
+        return v_hat[k];
+    }
+    if (src == SRC_DIFFUSED) {
+        if (j == 0 || j == i32(P.ny)) {
+            return 0.0;
+        }
+        return v_in[k] + diffusion_v(e, i, j);
+    }
+    return v_in[k];
+}
+
+fn fetch_u(src: u32, e: u32, i: i32, j: i32) -> f32 {
+    let m = ghost_u(i, j);
+    return f32(m.z) * value_u(src, e, m.x, m.y);
+}
+
+fn fetch_v(src: u32, e: u32, i: i32, j: i32) -> f32 {
+    let m = ghost_v(i, j);
+    return f32(m.z) * value_v(src, e, m.x, m.y);
+}
+
+// The four values of a bilinear stencil and the fractional position inside it.
+struct Stencil {
+    vals: vec4<f32>,
+    t: vec2<f32>,
+}
+
+fn bilerp(st: Stencil) -> f32 {
+    let bottom = mix(st.vals.x, st.vals.y, st.t.x);
+    let top = mix(st.vals.z, st.vals.w, st.t.x);
+    return mix(bottom, top, st.t.y);
+}
+
+fn stencil_min(st: Stencil) -> f32 {
+    return min(min(st.vals.x, st.vals.y), min(st.vals.z, st.vals.w));
+}
+
+fn stencil_max(st: Stencil) -> f32 {
+    return max(max(st.vals.x, st.vals.y), max(st.vals.z, st.vals.w));
+}
+
+// Stencil of u around the point (x, y) in metres; the point is clamped into the channel.
+fn stencil_u(src: u32, e: u32, x: f32, y: f32) -> Stencil {
+    let fx = clamp(x / P.dx, 0.0, f32(P.nx));
+    let fy = clamp(y / P.dy, 0.0, f32(P.ny)) - 0.5;
+    let i0 = min(i32(floor(fx)), i32(P.nx) - 1);
+    let j0 = i32(floor(fy));
+    var st: Stencil;
+    st.vals = vec4<f32>(
+        fetch_u(src, e, i0, j0),
+        fetch_u(src, e, i0 + 1, j0),
+        fetch_u(src, e, i0, j0 + 1),
+        fetch_u(src, e, i0 + 1, j0 + 1),
+    );
+    st.t = vec2<f32>(fx - f32(i0), fy - f32(j0));
+    return st;
+}
+
+// Stencil of v around the point (x, y) in metres; the point is clamped into the channel.
+fn stencil_v(src: u32, e: u32, x: f32, y: f32) -> Stencil {
+    let fx = clamp(x / P.dx, 0.0, f32(P.nx)) - 0.5;
+    let fy = clamp(y / P.dy, 0.0, f32(P.ny));
+    let i0 = i32(floor(fx));
+    let j0 = min(i32(floor(fy)), i32(P.ny) - 1);
+    var st: Stencil;
+    st.vals = vec4<f32>(
+        fetch_v(src, e, i0, j0),
+        fetch_v(src, e, i0 + 1, j0),
+        fetch_v(src, e, i0, j0 + 1),
+        fetch_v(src, e, i0 + 1, j0 + 1),
+    );
+    st.t = vec2<f32>(fx - f32(i0), fy - f32(j0));
+    return st;
+}
+
+// Velocity of the input field at (x, y).
+fn velocity_in(e: u32, pos: vec2<f32>) -> vec2<f32> {
+    return vec2<f32>(
+        bilerp(stencil_u(SRC_IN, e, pos.x, pos.y)),
+        bilerp(stencil_v(SRC_IN, e, pos.x, pos.y)),
+    );
+}
+
+// Departure point of a trajectory that ends at pos after a step h (midpoint rule, RK2).
+fn trace(e: u32, pos: vec2<f32>, h: f32) -> vec2<f32> {
+    let mid = pos - 0.5 * h * velocity_in(e, pos);
+    return pos - h * velocity_in(e, mid);
+}
+
+fn is_finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
+}

@@ -1,0 +1,181 @@
+//! `fluxswarm-gpu bench`: environment steps per second per batch size at the configured grid,
+//! cell updates per second, dispatches and pressure iterations per substep, and the time split
+//! (by elimination: the advection passes alone, the pressure passes alone, the diagnostics with
+//! the health read-back alone). Prints a table and writes `bench.csv` (SPEC section 7).
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use clap::Args;
+use fluxswarm_gpu::gpu::GpuContext;
+use fluxswarm_gpu::output::run_dir;
+use fluxswarm_gpu::sim::{FluidBatch, Stage, fluid::PRESSURE_ITERATIONS_PER_SUBSTEP};
+
+use super::common::ConfigArgs;
+
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    #[command(flatten)]
+    pub common: ConfigArgs,
+    /// Batch sizes, comma separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,4,16,64")]
+    pub envs: Vec<usize>,
+    /// Wall-clock seconds of timed control steps per batch size (at least 3 steps each).
+    #[arg(long, default_value_t = 5.0)]
+    pub seconds: f64,
+    /// Output directory (default runs/bench-<YYYYmmdd-HHMMSS>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+struct Row {
+    envs: usize,
+    env_steps_per_s: f64,
+    cell_updates_per_s: f64,
+    dispatches: u32,
+    fluid_s: f64,
+    pressure_s: f64,
+    readback_s: f64,
+    step_s: f64,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Median wall time of `f` over `reps` runs.
+fn time_median(reps: usize, mut f: impl FnMut() -> anyhow::Result<()>) -> anyhow::Result<f64> {
+    let mut t = Vec::with_capacity(reps);
+    for _ in 0..reps {
+        let s = Instant::now();
+        f()?;
+        t.push(s.elapsed().as_secs_f64());
+    }
+    Ok(median(t))
+}
+
+fn bench_one(
+    ctx: &GpuContext,
+    args: &BenchArgs,
+    resolved: &fluxswarm_gpu::config::Resolved,
+    envs: usize,
+) -> anyhow::Result<Row> {
+    let mut batch = FluidBatch::new(ctx, resolved, envs)?;
+    batch.step(ctx)?; // warm-up: pipeline compilation, first touches
+    let mut times = Vec::new();
+    let start = Instant::now();
+    while times.len() < 3 || start.elapsed().as_secs_f64() < args.seconds {
+        let s = Instant::now();
+        let health = batch.step(ctx)?;
+        times.push(s.elapsed().as_secs_f64());
+        if let Some(e) = health.iter().position(|h| h.diverged()) {
+            bail!("environment {e} diverged during the benchmark");
+        }
+    }
+    let step_s = median(times);
+    let substeps = batch.substeps();
+    let g = *batch.grid();
+    let reps = 3;
+    let fluid_s = time_median(reps, || {
+        Ok(batch.run_stages(ctx, &[Stage::Advect], 0, substeps)?)
+    })?;
+    let pressure_s = time_median(reps, || {
+        Ok(batch.run_stages(
+            ctx,
+            &[Stage::PressureRhs, Stage::PressureSolve, Stage::Project],
+            0,
+            substeps,
+        )?)
+    })?;
+    let readback_s = time_median(reps, || {
+        batch.health(ctx)?;
+        Ok(())
+    })?;
+    Ok(Row {
+        envs,
+        env_steps_per_s: envs as f64 / step_s,
+        cell_updates_per_s: (envs * g.n_cells() * substeps) as f64 / step_s,
+        dispatches: batch.dispatches_per_substep(),
+        fluid_s,
+        pressure_s,
+        readback_s,
+        step_s,
+    })
+}
+
+pub fn run(args: BenchArgs) -> anyhow::Result<()> {
+    let resolved = args.common.load()?;
+    if args.envs.is_empty() || args.envs.contains(&0) {
+        bail!("--envs needs positive batch sizes, e.g. --envs 1,4,16,64");
+    }
+    let out = run_dir::prepare(
+        &args
+            .out
+            .clone()
+            .unwrap_or_else(|| run_dir::default_dir("bench")),
+        &[],
+    )?;
+    let ctx = args.common.open_gpu()?;
+    let adapter = ctx.describe();
+    let c = &resolved.config;
+    println!(
+        "bench: {} x {} grid, {} substeps per control step, {:?} advection, adapter {adapter}",
+        c.domain.nx, c.domain.ny, c.time.substeps, c.solver.advection
+    );
+    println!(
+        "{:>5} {:>14} {:>12} {:>10} {:>9} {:>11} {:>11} {:>11} {:>11}",
+        "envs",
+        "env_steps/s",
+        "Mcell/s",
+        "disp/sub",
+        "p_iters",
+        "step_s",
+        "fluid_s",
+        "pressure_s",
+        "readback_s"
+    );
+    let mut csv = std::fs::File::create(out.join("bench.csv")).context("creating bench.csv")?;
+    writeln!(
+        csv,
+        "envs,env_steps_per_s,cell_updates_per_s,dispatches_per_substep,pressure_iters_per_substep,fluid_s,pressure_s,swarm_s,readback_s,adapter"
+    )?;
+    for &envs in &args.envs {
+        let r = bench_one(&ctx, &args, &resolved, envs)?;
+        println!(
+            "{:>5} {:>14.2} {:>12.1} {:>10} {:>9} {:>11.4} {:>11.4} {:>11.4} {:>11.4}",
+            r.envs,
+            r.env_steps_per_s,
+            r.cell_updates_per_s / 1e6,
+            r.dispatches,
+            PRESSURE_ITERATIONS_PER_SUBSTEP,
+            r.step_s,
+            r.fluid_s,
+            r.pressure_s,
+            r.readback_s
+        );
+        writeln!(
+            csv,
+            "{},{:.4},{:.4e},{},{},{:.6},{:.6},0,{:.6},\"{}\"",
+            r.envs,
+            r.env_steps_per_s,
+            r.cell_updates_per_s,
+            r.dispatches,
+            PRESSURE_ITERATIONS_PER_SUBSTEP,
+            r.fluid_s,
+            r.pressure_s,
+            r.readback_s,
+            adapter.replace('"', "'")
+        )?;
+        csv.flush()?;
+    }
+    println!("{}", out.display());
+    Ok(())
+}

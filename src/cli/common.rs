@@ -1,0 +1,38 @@
+//! Arguments and start-up steps shared by the subcommands.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+use fluxswarm_gpu::config::{Config, Resolved};
+use fluxswarm_gpu::gpu::{AdapterChoice, GpuContext, probe};
+
+#[derive(Debug, Args, Clone)]
+pub struct ConfigArgs {
+    /// TOML file merged over the embedded paper configuration (configs/paper.toml).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Override one key, e.g. `--set domain.nx=500` (repeatable).
+    #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
+    pub sets: Vec<String>,
+    /// Adapter: a real GPU if present (auto), a GPU only, or the software adapter (cpu).
+    #[arg(long, value_enum, default_value_t = AdapterChoice::Auto)]
+    pub adapter: AdapterChoice,
+}
+
+impl ConfigArgs {
+    /// Loads and validates the configuration (before any GPU work).
+    pub fn load(&self) -> anyhow::Result<Resolved> {
+        Ok(Config::load(self.config.as_deref(), &self.sets)?)
+    }
+
+    /// Opens the adapter, prints which one runs, and warns about a loop-capping driver.
+    pub fn open_gpu(&self) -> anyhow::Result<GpuContext> {
+        let ctx = GpuContext::new(self.adapter)?;
+        log::info!("{}", ctx.banner());
+        if let Some(warning) = probe::check_loop_cap(&ctx).context("driver self-check")? {
+            log::warn!("{warning}");
+        }
+        Ok(ctx)
+    }
+}

@@ -1,0 +1,37 @@
+//! Command-line interface: clap subcommands, each calling its module's `run`.
+
+mod bench;
+mod common;
+mod info;
+mod simulate;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "fluxswarm-gpu",
+    version,
+    about = "Batched GPU Navier-Stokes channel flow for micro-robot swarms in pulsatile blood flow"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// List adapters, the chosen one, its limits, the driver self-check and the largest batch.
+    Info(info::InfoArgs),
+    /// Run the flow and write frames, fields and summary.csv.
+    Simulate(simulate::SimulateArgs),
+    /// Measure environment steps per second per batch size at the configured grid.
+    Bench(bench::BenchArgs),
+}
+
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Info(a) => info::run(a),
+        Command::Simulate(a) => simulate::run(a),
+        Command::Bench(a) => bench::run(a),
+    }
+}

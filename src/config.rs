@@ -1,0 +1,379 @@
+//! Run configuration: TOML mirrored by serde structs (`deny_unknown_fields`), SI units, each key
+//! named with its unit. `configs/paper.toml` is embedded as the default; a user file is merged
+//! over it key by key, then `--set section.key=value` overrides are applied, then everything is
+//! validated (ranges, waveform, diffusion number, CFL number) before any GPU work.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::waveform::{Waveform, WaveformError};
+
+/// The paper's setup, embedded.
+pub const PAPER_TOML: &str = include_str!("../configs/paper.toml");
+
+/// Largest explicit-diffusion number nu dt (1/dx^2 + 1/dy^2) / 2 accepted (FTCS stability).
+pub const MAX_DIFFUSION_NUMBER: f64 = 0.25;
+/// Largest CFL number U_peak dt_sub / dx accepted: a departure point never leaves the
+/// neighbouring cells, so the one-cell-deep boundary ghosts of the advection stay valid.
+pub const MAX_CFL: f64 = 1.0;
+/// Relative allowance for decimal rounding when comparing the CFL number to its limit (the
+/// paper's setup is exactly CFL = 1, which in f64 evaluates to 1 + 2e-16).
+pub const CFL_ROUNDING_ALLOWANCE: f64 = 1e-9;
+
+/// Keys that may be absent from the default configuration but can be set.
+const OPTIONAL_KEYS: &[(&str, &str)] = &[("inlet", "csv")];
+
+#[derive(Debug, Error)]
+pub enum ConfigError {
+    #[error("cannot read config file {path}: {source}")]
+    Read {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("config file {path} is not valid TOML: {message}")]
+    Syntax { path: String, message: String },
+    #[error("--set {arg}: {message}")]
+    Set { arg: String, message: String },
+    #[error("config key `{key}`: {message}")]
+    Key { key: String, message: String },
+    #[error("config key `{key}` = {value}: {message}")]
+    Range {
+        key: String,
+        value: String,
+        message: String,
+    },
+    #[error(transparent)]
+    Waveform(#[from] WaveformError),
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    pub domain: Domain,
+    pub fluid: Fluid,
+    pub time: Time,
+    pub inlet: Inlet,
+    pub solver: Solver,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Domain {
+    pub length_m: f64,
+    pub height_m: f64,
+    pub nx: u32,
+    pub ny: u32,
+    pub success_x_m: f64,
+    pub failure_x_m: f64,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Fluid {
+    pub density_kg_m3: f64,
+    pub viscosity_pa_s: f64,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Time {
+    pub control_dt_s: f64,
+    pub substeps: u32,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Inlet {
+    pub period_s: f64,
+    #[serde(default)]
+    pub points: Vec<[f64; 2]>,
+    /// CSV file of control points (header `t_s,u_m_per_s`); replaces `points` when given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub csv: Option<PathBuf>,
+    #[serde(default)]
+    pub random_phase: bool,
+}
+
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Advection {
+    /// First-order semi-Lagrangian (the paper's scheme).
+    SemiLagrangian,
+    /// Second-order MacCormack with the Selle et al. (2008) extrema clamp.
+    Maccormack,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Solver {
+    pub advection: Advection,
+}
+
+/// A validated configuration with its waveform resolved.
+#[derive(Debug, Clone)]
+pub struct Resolved {
+    pub config: Config,
+    pub waveform: Waveform,
+}
+
+impl Config {
+    /// The embedded paper configuration.
+    pub fn paper() -> Self {
+        toml::from_str(PAPER_TOML).expect("embedded configs/paper.toml is valid")
+    }
+
+    /// Default <- optional file <- `--set` overrides, then validation.
+    pub fn load(file: Option<&Path>, sets: &[String]) -> Result<Resolved, ConfigError> {
+        let mut table: toml::Table = PAPER_TOML
+            .parse()
+            .expect("embedded configs/paper.toml is valid");
+        let mut base_dir = PathBuf::from(".");
+        if let Some(path) = file {
+            let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+                path: path.display().to_string(),
+                source,
+            })?;
+            let user: toml::Table =
+                text.parse()
+                    .map_err(|e: toml::de::Error| ConfigError::Syntax {
+                        path: path.display().to_string(),
+                        message: e.message().to_string(),
+                    })?;
+            merge(&mut table, user);
+            if let Some(dir) = path.parent() {
+                base_dir = dir.to_path_buf();
+            }
+        }
+        for arg in sets {
+            apply_set(&mut table, arg)?;
+        }
+        let mut config: Config = serde_path_to_error::deserialize(toml::Value::Table(table))
+            .map_err(|e| ConfigError::Key {
+                key: e.path().to_string(),
+                message: e.into_inner().message().to_string(),
+            })?;
+        if let Some(csv) = &config.inlet.csv
+            && csv.is_relative()
+        {
+            config.inlet.csv = Some(base_dir.join(csv));
+        }
+        config.resolve()
+    }
+
+    /// Validates every range and builds the waveform.
+    pub fn resolve(self) -> Result<Resolved, ConfigError> {
+        let d = &self.domain;
+        positive("domain.length_m", d.length_m)?;
+        positive("domain.height_m", d.height_m)?;
+        at_least("domain.nx", d.nx, 4)?;
+        at_least("domain.ny", d.ny, 2)?;
+        if !(d.success_x_m > 0.0 && d.success_x_m < d.length_m) {
+            return Err(range(
+                "domain.success_x_m",
+                d.success_x_m,
+                format!(
+                    "must lie inside the channel, 0 < x < length_m = {}",
+                    d.length_m
+                ),
+            ));
+        }
+        if !(d.failure_x_m > d.success_x_m && d.failure_x_m < d.length_m) {
+            return Err(range(
+                "domain.failure_x_m",
+                d.failure_x_m,
+                format!(
+                    "must lie between success_x_m = {} and length_m = {}",
+                    d.success_x_m, d.length_m
+                ),
+            ));
+        }
+        positive("fluid.density_kg_m3", self.fluid.density_kg_m3)?;
+        positive("fluid.viscosity_pa_s", self.fluid.viscosity_pa_s)?;
+        positive("time.control_dt_s", self.time.control_dt_s)?;
+        at_least("time.substeps", self.time.substeps, 1)?;
+        positive("inlet.period_s", self.inlet.period_s)?;
+
+        let waveform = match &self.inlet.csv {
+            Some(path) => Waveform::from_csv(path, self.inlet.period_s)?,
+            None => Waveform::new(
+                self.inlet.points.iter().map(|p| (p[0], p[1])).collect(),
+                self.inlet.period_s,
+            )?,
+        };
+
+        let diffusion = self.diffusion_number();
+        if diffusion > MAX_DIFFUSION_NUMBER {
+            return Err(range(
+                "time.substeps",
+                self.time.substeps,
+                format!(
+                    "gives a diffusion number nu dt_sub (1/dx^2 + 1/dy^2) / 2 = {diffusion:.4}, above \
+                     the explicit-diffusion limit {MAX_DIFFUSION_NUMBER}: raise time.substeps, lower \
+                     time.control_dt_s or use a coarser grid"
+                ),
+            ));
+        }
+        let cfl = self.cfl_number(&waveform);
+        if cfl > MAX_CFL * (1.0 + CFL_ROUNDING_ALLOWANCE) {
+            return Err(range(
+                "time.substeps",
+                self.time.substeps,
+                format!(
+                    "gives a CFL number U_peak dt_sub / dx = {:.4} m/s x {:.4e} s / {:.4e} m = {cfl:.4}, \
+                     above the limit {MAX_CFL}: raise time.substeps, lower time.control_dt_s or the \
+                     inlet velocity, or use a coarser grid",
+                    waveform.peak_abs(),
+                    self.dt_sub(),
+                    self.dx()
+                ),
+            ));
+        }
+        Ok(Resolved {
+            config: self,
+            waveform,
+        })
+    }
+
+    pub fn dx(&self) -> f64 {
+        self.domain.length_m / self.domain.nx as f64
+    }
+
+    pub fn dy(&self) -> f64 {
+        self.domain.height_m / self.domain.ny as f64
+    }
+
+    pub fn dt_sub(&self) -> f64 {
+        self.time.control_dt_s / self.time.substeps as f64
+    }
+
+    pub fn kinematic_viscosity(&self) -> f64 {
+        self.fluid.viscosity_pa_s / self.fluid.density_kg_m3
+    }
+
+    /// nu dt_sub (1/dx^2 + 1/dy^2) / 2; equals nu dt / dx^2 on a square grid.
+    pub fn diffusion_number(&self) -> f64 {
+        let (dx, dy) = (self.dx(), self.dy());
+        0.5 * self.kinematic_viscosity() * self.dt_sub() * (1.0 / (dx * dx) + 1.0 / (dy * dy))
+    }
+
+    /// U_peak dt_sub / dx from the peak inlet centreline velocity, in f64.
+    pub fn cfl_number(&self, waveform: &Waveform) -> f64 {
+        waveform.peak_abs() * self.dt_sub() / self.dx()
+    }
+
+    /// The resolved configuration as TOML text.
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).unwrap_or_default()
+    }
+}
+
+fn range(key: &str, value: impl std::fmt::Display, message: String) -> ConfigError {
+    ConfigError::Range {
+        key: key.into(),
+        value: value.to_string(),
+        message,
+    }
+}
+
+fn positive(key: &str, value: f64) -> Result<(), ConfigError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(range(
+            key,
+            value,
+            "must be a positive, finite number".into(),
+        ))
+    }
+}
+
+fn at_least(key: &str, value: u32, min: u32) -> Result<(), ConfigError> {
+    if value >= min {
+        Ok(())
+    } else {
+        Err(range(key, value, format!("must be at least {min}")))
+    }
+}
+
+/// Deep merge: tables merge key by key, anything else is replaced.
+fn merge(base: &mut toml::Table, over: toml::Table) {
+    for (key, value) in over {
+        match (base.get_mut(&key), value) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+            (_, value) => {
+                base.insert(key, value);
+            }
+        }
+    }
+}
+
+/// Applies one `section.key=value` override. The value is read as TOML (numbers, booleans,
+/// arrays, quoted strings); anything that is not valid TOML is taken as a bare string.
+fn apply_set(table: &mut toml::Table, arg: &str) -> Result<(), ConfigError> {
+    let err = |message: String| ConfigError::Set {
+        arg: arg.into(),
+        message,
+    };
+    let (path, raw) = arg
+        .split_once('=')
+        .ok_or_else(|| err("expected section.key=value".into()))?;
+    let (section, key) = path
+        .trim()
+        .split_once('.')
+        .ok_or_else(|| err("expected section.key=value, e.g. domain.nx=500".into()))?;
+    let raw = raw.trim();
+    let value = match format!("v = {raw}").parse::<toml::Table>() {
+        Ok(mut t) => t.remove("v").unwrap_or(toml::Value::String(raw.into())),
+        Err(_) => toml::Value::String(raw.into()),
+    };
+    let sections: Vec<String> = table.keys().cloned().collect();
+    let Some(toml::Value::Table(sec)) = table.get_mut(section) else {
+        return Err(err(format!(
+            "unknown section `{section}`; sections are: {}",
+            sections.join(", ")
+        )));
+    };
+    let optional = OPTIONAL_KEYS.contains(&(section, key));
+    if !sec.contains_key(key) && !optional {
+        let mut known: Vec<&str> = sec.keys().map(String::as_str).collect();
+        known.extend(OPTIONAL_KEYS.iter().filter(|o| o.0 == section).map(|o| o.1));
+        return Err(err(format!(
+            "unknown key `{key}` in [{section}]; known keys: {}",
+            known.join(", ")
+        )));
+    }
+    sec.insert(key.into(), value);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_config_loads_at_cfl_one() {
+        let r = Config::load(None, &[]).unwrap();
+        let cfl = r.config.cfl_number(&r.waveform);
+        assert!((cfl - 1.0).abs() < 1e-12, "{cfl}");
+        assert!((r.config.diffusion_number() - 0.0707).abs() < 1e-3);
+        assert_eq!(r.config, Config::paper());
+    }
+
+    #[test]
+    fn set_overrides_and_merges() {
+        let r = Config::load(
+            None,
+            &[
+                "domain.nx=500".into(),
+                "solver.advection=semi_lagrangian".into(),
+                "inlet.points=[[0.0, 0.1], [0.5, 0.2]]".into(),
+            ],
+        )
+        .unwrap();
+        assert_eq!(r.config.domain.nx, 500);
+        assert_eq!(r.config.solver.advection, Advection::SemiLagrangian);
+        assert!((r.waveform.at(0.25) - 0.15).abs() < 1e-12);
+    }
+}

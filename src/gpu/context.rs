@@ -1,0 +1,182 @@
+//! Adapter selection and device creation. Prefers a real GPU; falls back to a software adapter
+//! (Mesa lavapipe on Vulkan, or llvmpipe on GL) and says so. Requests the adapter's own limits
+//! (wgpu's defaults allow only 256 MiB buffers).
+
+use std::fmt;
+
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum GpuError {
+    #[error(
+        "no {wanted} adapter found (adapters seen: {seen}). On Debian/Ubuntu install the software \
+         Vulkan driver with `bash scripts/install-vulkan.sh` (or `apt-get install libvulkan1 \
+         mesa-vulkan-drivers`); with a GPU, install its vendor's Vulkan driver. `--adapter auto` \
+         takes whatever is there."
+    )]
+    NoAdapter { wanted: AdapterChoice, seen: String },
+    #[error("the adapter {adapter} refused to create a device: {message}")]
+    Device { adapter: String, message: String },
+    #[error("GPU operation failed: {0}")]
+    Operation(String),
+}
+
+/// Which kind of adapter to run on (`--adapter`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum AdapterChoice {
+    /// A real GPU when present, otherwise the software adapter.
+    #[default]
+    Auto,
+    /// A real GPU only.
+    Gpu,
+    /// The software adapter only (lavapipe / llvmpipe).
+    Cpu,
+}
+
+impl fmt::Display for AdapterChoice {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            AdapterChoice::Auto => "usable",
+            AdapterChoice::Gpu => "GPU",
+            AdapterChoice::Cpu => "software (CPU)",
+        })
+    }
+}
+
+/// A device and queue with what we know about the adapter behind them.
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    pub limits: wgpu::Limits,
+}
+
+impl GpuContext {
+    /// Picks an adapter per `choice` and creates a device with the adapter's limits.
+    pub fn new(choice: AdapterChoice) -> Result<Self, GpuError> {
+        let adapters = enumerate_adapters();
+        let seen = describe_all(&adapters);
+        let adapter = pick(adapters, choice).ok_or(GpuError::NoAdapter {
+            wanted: choice,
+            seen,
+        })?;
+        Self::from_adapter(adapter)
+    }
+
+    pub fn from_adapter(adapter: wgpu::Adapter) -> Result<Self, GpuError> {
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("fluxswarm"),
+            required_features: wgpu::Features::empty(),
+            required_limits: limits.clone(),
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| GpuError::Device {
+            adapter: describe(&info),
+            message: e.to_string(),
+        })?;
+        device.on_uncaptured_error(std::sync::Arc::new(|e| {
+            log::error!("wgpu: {e}");
+        }));
+        Ok(Self {
+            device,
+            queue,
+            info,
+            limits,
+        })
+    }
+
+    pub fn is_software(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
+    /// e.g. `llvmpipe (LLVM 19.1.7, 256 bits) (Vulkan, Cpu)`.
+    pub fn describe(&self) -> String {
+        describe(&self.info)
+    }
+
+    /// The line every command prints first.
+    pub fn banner(&self) -> String {
+        if self.is_software() {
+            format!(
+                "adapter: {} - software fallback, expect CPU speed",
+                self.describe()
+            )
+        } else {
+            format!("adapter: {}", self.describe())
+        }
+    }
+
+    /// Waits for all submitted work.
+    pub fn wait(&self) -> Result<(), GpuError> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| GpuError::Operation(e.to_string()))
+    }
+}
+
+/// Every adapter of every backend compiled in.
+pub fn enumerate_adapters() -> Vec<wgpu::Adapter> {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::all().with_env(),
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    });
+    pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()))
+}
+
+pub fn describe(info: &wgpu::AdapterInfo) -> String {
+    let driver = if info.driver_info.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", info.driver_info)
+    };
+    format!(
+        "{}{} ({:?}, {:?})",
+        info.name, driver, info.backend, info.device_type
+    )
+}
+
+fn describe_all(adapters: &[wgpu::Adapter]) -> String {
+    if adapters.is_empty() {
+        return "none".into();
+    }
+    adapters
+        .iter()
+        .map(|a| describe(&a.get_info()))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+/// Rank: real GPUs first (discrete, integrated, virtual), then CPU adapters; Vulkan before GL.
+fn rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
+    let kind = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Other => 3,
+        wgpu::DeviceType::Cpu => 4,
+    };
+    let backend = match info.backend {
+        wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
+        _ => 1,
+    };
+    (kind, backend)
+}
+
+fn pick(adapters: Vec<wgpu::Adapter>, choice: AdapterChoice) -> Option<wgpu::Adapter> {
+    adapters
+        .into_iter()
+        .filter(|a| {
+            let cpu = a.get_info().device_type == wgpu::DeviceType::Cpu;
+            match choice {
+                AdapterChoice::Auto => true,
+                AdapterChoice::Gpu => !cpu,
+                AdapterChoice::Cpu => cpu,
+            }
+        })
+        .min_by_key(|a| rank(&a.get_info()))
+}

@@ -1,0 +1,28 @@
+//! `shaders/pressure_rhs.wgsl`: divergence of the predicted velocity, transformed to the
+//! y-cosine modes. Grid: (ceil(nx/64), ny, E).
+
+use super::{Dims, FieldLayout, Pipeline, fluid_module, groups};
+
+pub struct PressureRhs {
+    pipeline: Pipeline,
+}
+
+impl PressureRhs {
+    pub fn new(device: &wgpu::Device, layout: &FieldLayout) -> Self {
+        let module = fluid_module(device, "pressure_rhs", crate::gpu::shaders::PRESSURE_RHS);
+        Self {
+            pipeline: Pipeline::new(device, layout, &module, "pressure_rhs"),
+        }
+    }
+
+    pub fn record(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        bind: &wgpu::BindGroup,
+        offset: u32,
+        d: Dims,
+    ) {
+        self.pipeline
+            .dispatch(pass, bind, offset, [groups(d.nx, 64), d.ny, d.n_env]);
+    }
+}

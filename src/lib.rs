@@ -1,0 +1,12 @@
+//! fluxswarm-gpu: a batched 2D incompressible Navier-Stokes channel solver in WGSL compute
+//! shaders (wgpu), for training micro-robot swarms to swim upstream in pulsatile blood flow.
+//!
+//! Layers, each depending only on those below it:
+//! `output` (frames, .npy, CSV) -> `sim` (the batched flow) -> `gpu` (kernels, context),
+//! with `config` and `waveform` beside them.
+
+pub mod config;
+pub mod gpu;
+pub mod output;
+pub mod sim;
+pub mod waveform;

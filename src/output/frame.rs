@@ -1,0 +1,268 @@
+//! Frame of u_x over the analysis region: a perceptual colour map (viridis) of the
+//! cell-centred field with a labelled colour bar in mm/s, the time and inlet velocity printed
+//! on the image, x ticks in mm, and the height exaggerated so the profile is visible.
+
+use std::path::Path;
+
+use image::{Rgb, RgbImage};
+
+use super::text::{draw_text, text_width};
+
+const BLACK: Rgb<u8> = Rgb([0, 0, 0]);
+const WHITE: Rgb<u8> = Rgb([255, 255, 255]);
+const GREY: Rgb<u8> = Rgb([90, 90, 90]);
+
+/// What a frame shows.
+pub struct FrameSpec<'a> {
+    /// u_x at cell centres, [ny][nx] (m/s).
+    pub ux: &'a [f32],
+    pub nx: usize,
+    pub ny: usize,
+    pub length_m: f64,
+    pub height_m: f64,
+    /// Shown x range (m).
+    pub x_min_m: f64,
+    pub x_max_m: f64,
+    /// Colour range (m/s).
+    pub v_min: f64,
+    pub v_max: f64,
+    pub time_s: f64,
+    pub inlet_u_m_s: f64,
+    pub env: usize,
+}
+
+/// Field area width in pixels (at least one pixel per cell column).
+const FIELD_WIDTH: u32 = 900;
+const LEFT: u32 = 56;
+const TOP: u32 = 34;
+const BOTTOM: u32 = 44;
+const RIGHT: u32 = 130;
+
+/// Renders the frame.
+pub fn render(spec: &FrameSpec) -> RgbImage {
+    let dx = spec.length_m / spec.nx as f64;
+    let i0 = ((spec.x_min_m / dx).floor().max(0.0) as usize).min(spec.nx - 1);
+    let i1 = ((spec.x_max_m / dx).ceil() as usize).clamp(i0 + 1, spec.nx);
+    let cols = i1 - i0;
+    let width = FIELD_WIDTH.max(cols as u32);
+    let height = (spec.ny as u32 * 10).clamp(120, 240);
+    let shown_len = cols as f64 * dx;
+    let exaggeration = (height as f64 / spec.height_m) / (width as f64 / shown_len);
+
+    let mut img = RgbImage::from_pixel(LEFT + width + RIGHT, TOP + height + BOTTOM, WHITE);
+    let range = (spec.v_max - spec.v_min).max(1e-12);
+    let colour = |v: f64| {
+        let t = ((v - spec.v_min) / range).clamp(0.0, 1.0);
+        let c = colorous::VIRIDIS.eval_continuous(t);
+        Rgb([c.r, c.g, c.b])
+    };
+    // Field: bilinear in the cell-centred values.
+    for py in 0..height {
+        let y = (height - 1 - py) as f64 + 0.5; // pixel centre, 0 at the bottom
+        let fy = (y / height as f64 * spec.ny as f64 - 0.5).clamp(0.0, (spec.ny - 1) as f64);
+        let j0 = (fy.floor() as usize).min(spec.ny.saturating_sub(2));
+        let ty = fy - j0 as f64;
+        let j1 = (j0 + 1).min(spec.ny - 1);
+        for px in 0..width {
+            let x = (px as f64 + 0.5) / width as f64 * cols as f64 + i0 as f64 - 0.5;
+            let fx = x.clamp(0.0, (spec.nx - 1) as f64);
+            let a = (fx.floor() as usize).min(spec.nx.saturating_sub(2));
+            let tx = fx - a as f64;
+            let b = (a + 1).min(spec.nx - 1);
+            let at = |i: usize, j: usize| spec.ux[j * spec.nx + i] as f64;
+            let lo = at(a, j0) * (1.0 - tx) + at(b, j0) * tx;
+            let hi = at(a, j1) * (1.0 - tx) + at(b, j1) * tx;
+            img.put_pixel(LEFT + px, TOP + py, colour(lo * (1.0 - ty) + hi * ty));
+        }
+    }
+    // Frame, x ticks every 10 mm (5 mm for short spans), y labels.
+    rect(&mut img, LEFT - 1, TOP - 1, width + 2, height + 2, BLACK);
+    let x_lo = i0 as f64 * dx * 1e3;
+    let x_hi = i1 as f64 * dx * 1e3;
+    let step = nice_step(x_hi - x_lo, 8);
+    let mut tick = (x_lo / step).ceil() * step;
+    while tick <= x_hi + 1e-9 {
+        let px = LEFT as f64 + (tick - x_lo) / (x_hi - x_lo) * width as f64;
+        let px = (px.round() as u32).min(LEFT + width - 1);
+        vline(&mut img, px, TOP + height, 5, BLACK);
+        let label = format_tick(tick, step);
+        draw_text(
+            &mut img,
+            px as i64 - text_width(&label, 1) as i64 / 2,
+            (TOP + height + 8) as i64,
+            &label,
+            1,
+            BLACK,
+        );
+        tick += step;
+    }
+    let xlabel = format!("x (mm)    y exaggerated {exaggeration:.0}x");
+    draw_text(
+        &mut img,
+        (LEFT + width / 2) as i64 - text_width(&xlabel, 1) as i64 / 2,
+        (TOP + height + 24) as i64,
+        &xlabel,
+        1,
+        BLACK,
+    );
+    let h_mm = format!("{:.1}", spec.height_m * 1e3);
+    draw_text(
+        &mut img,
+        (LEFT - 8 - text_width(&h_mm, 1)) as i64,
+        TOP as i64,
+        &h_mm,
+        1,
+        BLACK,
+    );
+    draw_text(
+        &mut img,
+        (LEFT - 16) as i64,
+        (TOP + height - 8) as i64,
+        "0",
+        1,
+        BLACK,
+    );
+    draw_text(
+        &mut img,
+        4,
+        (TOP + height / 2 - 4) as i64,
+        "y(mm)",
+        1,
+        BLACK,
+    );
+    // Title: time, inlet velocity.
+    let title = format!(
+        "u_x  env {}   t = {:.3} s   inlet U = {:.1} mm/s",
+        spec.env,
+        spec.time_s,
+        spec.inlet_u_m_s * 1e3
+    );
+    draw_text(&mut img, LEFT as i64, 8, &title, 2, BLACK);
+    // Colour bar with ticks in mm/s.
+    let bar_x = LEFT + width + 16;
+    let bar_w = 18;
+    for py in 0..height {
+        let t = 1.0 - (py as f64 + 0.5) / height as f64;
+        let c = colour(spec.v_min + t * range);
+        for px in 0..bar_w {
+            img.put_pixel(bar_x + px, TOP + py, c);
+        }
+    }
+    rect(&mut img, bar_x - 1, TOP - 1, bar_w + 2, height + 2, BLACK);
+    let lo = spec.v_min * 1e3;
+    let hi = spec.v_max * 1e3;
+    let step = nice_step(hi - lo, 6);
+    let mut tick = (lo / step).ceil() * step;
+    while tick <= hi + 1e-9 {
+        let py = TOP as f64 + (1.0 - (tick - lo) / (hi - lo)) * height as f64;
+        let py = (py.round() as u32).clamp(TOP, TOP + height - 1);
+        hline(&mut img, bar_x + bar_w, py, 4, BLACK);
+        draw_text(
+            &mut img,
+            (bar_x + bar_w + 6) as i64,
+            py as i64 - 4,
+            &format_tick(tick, step),
+            1,
+            BLACK,
+        );
+        tick += step;
+    }
+    draw_text(
+        &mut img,
+        bar_x as i64 - 4,
+        (TOP + height + 24) as i64,
+        "u_x (mm/s)",
+        1,
+        GREY,
+    );
+    img
+}
+
+/// Renders and writes a PNG.
+pub fn write(path: &Path, spec: &FrameSpec) -> image::ImageResult<()> {
+    render(spec).save(path)
+}
+
+/// A 1, 2 or 5 x 10^k step giving about `count` ticks over `span`.
+pub fn nice_step(span: f64, count: u32) -> f64 {
+    let raw = (span.abs() / count.max(1) as f64).max(1e-12);
+    let mag = 10f64.powf(raw.log10().floor());
+    let norm = raw / mag;
+    let m = if norm <= 1.0 {
+        1.0
+    } else if norm <= 2.0 {
+        2.0
+    } else if norm <= 5.0 {
+        5.0
+    } else {
+        10.0
+    };
+    m * mag
+}
+
+fn format_tick(v: f64, step: f64) -> String {
+    let decimals = if step >= 1.0 {
+        0
+    } else {
+        (-step.log10().floor()) as usize
+    };
+    let v = if v.abs() < step * 1e-6 { 0.0 } else { v };
+    format!("{v:.decimals$}")
+}
+
+fn hline(img: &mut RgbImage, x: u32, y: u32, len: u32, c: Rgb<u8>) {
+    for px in x..(x + len).min(img.width()) {
+        img.put_pixel(px, y, c);
+    }
+}
+
+fn vline(img: &mut RgbImage, x: u32, y: u32, len: u32, c: Rgb<u8>) {
+    for py in y..(y + len).min(img.height()) {
+        img.put_pixel(x, py, c);
+    }
+}
+
+fn rect(img: &mut RgbImage, x: u32, y: u32, w: u32, h: u32, c: Rgb<u8>) {
+    hline(img, x, y, w, c);
+    hline(img, x, y + h - 1, w, c);
+    vline(img, x, y, h, c);
+    vline(img, x + w - 1, y, h, c);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nice_steps() {
+        assert_eq!(nice_step(60.0, 8), 10.0);
+        assert_eq!(nice_step(480.0, 6), 100.0);
+        assert!((nice_step(0.9, 6) - 0.2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn renders_expected_size_and_colours() {
+        let (nx, ny) = (100, 20);
+        let ux: Vec<f32> = (0..nx * ny).map(|k| (k / nx) as f32 * 0.01).collect();
+        let img = render(&FrameSpec {
+            ux: &ux,
+            nx,
+            ny,
+            length_m: 0.1,
+            height_m: 0.002,
+            x_min_m: 0.02,
+            x_max_m: 0.08,
+            v_min: 0.0,
+            v_max: 0.2,
+            time_s: 0.1,
+            inlet_u_m_s: 0.4,
+            env: 0,
+        });
+        assert_eq!(img.width(), LEFT + FIELD_WIDTH + RIGHT);
+        // Bottom row of the field is dark (low), top row bright (high) in viridis.
+        let low = img.get_pixel(LEFT + 10, TOP + img.height() - TOP - BOTTOM - 1);
+        let high = img.get_pixel(LEFT + 10, TOP);
+        let lum = |p: &Rgb<u8>| p.0.iter().map(|&c| c as u32).sum::<u32>();
+        assert!(lum(high) > lum(low) + 200);
+    }
+}

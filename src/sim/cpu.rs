@@ -1,0 +1,495 @@
+//! Plain-Rust twin of every fluid kernel, on the same buffer layouts and in the same f32
+//! arithmetic, so tests can compare the GPU against it element by element. Also a whole
+//! control step ([`CpuBatch::step`]) built from the twins.
+
+use crate::config::Advection;
+use crate::gpu::params::GpuParams;
+
+use super::EnvHealth;
+
+/// What a sampler reads (mirrors SRC_IN / SRC_HAT / SRC_DIFFUSED).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Src {
+    In,
+    Hat,
+    Diffused,
+}
+
+/// Grid helpers of `common.wgsl` over one set of velocity arrays.
+struct G<'a> {
+    p: &'a GpuParams,
+    u: &'a [f32],
+    v: &'a [f32],
+    u_hat: &'a [f32],
+    v_hat: &'a [f32],
+}
+
+fn u_idx(p: &GpuParams, e: usize, i: usize, j: usize) -> usize {
+    (e * p.ny as usize + j) * (p.nx as usize + 1) + i
+}
+
+fn v_idx(p: &GpuParams, e: usize, i: usize, j: usize) -> usize {
+    (e * (p.ny as usize + 1) + j) * p.nx as usize + i
+}
+
+fn c_idx(p: &GpuParams, e: usize, i: usize, j: usize) -> usize {
+    (e * p.ny as usize + j) * p.nx as usize + i
+}
+
+impl G<'_> {
+    fn nx(&self) -> i32 {
+        self.p.nx as i32
+    }
+    fn ny(&self) -> i32 {
+        self.p.ny as i32
+    }
+
+    fn ghost_u(&self, i: i32, j: i32) -> (i32, i32, f32) {
+        let ic = i.clamp(0, self.nx());
+        if j < 0 {
+            (ic, 0, -1.0)
+        } else if j >= self.ny() {
+            (ic, self.ny() - 1, -1.0)
+        } else {
+            (ic, j, 1.0)
+        }
+    }
+
+    fn ghost_v(&self, i: i32, j: i32) -> (i32, i32, f32) {
+        let jc = j.clamp(0, self.ny());
+        if i < 0 {
+            (0, jc, -1.0)
+        } else {
+            (i.min(self.nx() - 1), jc, 1.0)
+        }
+    }
+
+    fn fetch_u_in(&self, e: usize, i: i32, j: i32) -> f32 {
+        let (ic, jc, s) = self.ghost_u(i, j);
+        s * self.u[u_idx(self.p, e, ic as usize, jc as usize)]
+    }
+
+    fn fetch_v_in(&self, e: usize, i: i32, j: i32) -> f32 {
+        let (ic, jc, s) = self.ghost_v(i, j);
+        s * self.v[v_idx(self.p, e, ic as usize, jc as usize)]
+    }
+
+    fn diffusion_u(&self, e: usize, i: i32, j: i32) -> f32 {
+        let p = self.p;
+        let c = self.fetch_u_in(e, i, j);
+        let lx = self.fetch_u_in(e, i + 1, j) + self.fetch_u_in(e, i - 1, j) - 2.0 * c;
+        let ly = self.fetch_u_in(e, i, j + 1) + self.fetch_u_in(e, i, j - 1) - 2.0 * c;
+        p.dt * p.nu * (lx / (p.dx * p.dx) + ly / (p.dy * p.dy))
+    }
+
+    fn diffusion_v(&self, e: usize, i: i32, j: i32) -> f32 {
+        let p = self.p;
+        let c = self.fetch_v_in(e, i, j);
+        let lx = self.fetch_v_in(e, i + 1, j) + self.fetch_v_in(e, i - 1, j) - 2.0 * c;
+        let ly = self.fetch_v_in(e, i, j + 1) + self.fetch_v_in(e, i, j - 1) - 2.0 * c;
+        p.dt * p.nu * (lx / (p.dx * p.dx) + ly / (p.dy * p.dy))
+    }
+
+    fn value_u(&self, src: Src, e: usize, i: i32, j: i32) -> f32 {
+        let k = u_idx(self.p, e, i as usize, j as usize);
+        match src {
+            Src::Hat => self.u_hat[k],
+            Src::Diffused if i > 0 => self.u[k] + self.diffusion_u(e, i, j),
+            _ => self.u[k],
+        }
+    }
+
+    fn value_v(&self, src: Src, e: usize, i: i32, j: i32) -> f32 {
+        let k = v_idx(self.p, e, i as usize, j as usize);
+        match src {
+            Src::Hat => self.v_hat[k],
+            Src::Diffused if j == 0 || j == self.ny() => 0.0,
+            Src::Diffused => self.v[k] + self.diffusion_v(e, i, j),
+            Src::In => self.v[k],
+        }
+    }
+
+    fn fetch_u(&self, src: Src, e: usize, i: i32, j: i32) -> f32 {
+        let (ic, jc, s) = self.ghost_u(i, j);
+        s * self.value_u(src, e, ic, jc)
+    }
+
+    fn fetch_v(&self, src: Src, e: usize, i: i32, j: i32) -> f32 {
+        let (ic, jc, s) = self.ghost_v(i, j);
+        s * self.value_v(src, e, ic, jc)
+    }
+
+    fn stencil_u(&self, src: Src, e: usize, x: f32, y: f32) -> Stencil {
+        let fx = (x / self.p.dx).clamp(0.0, self.p.nx as f32);
+        let fy = (y / self.p.dy).clamp(0.0, self.p.ny as f32) - 0.5;
+        let i0 = (fx.floor() as i32).min(self.nx() - 1);
+        let j0 = fy.floor() as i32;
+        Stencil {
+            vals: [
+                self.fetch_u(src, e, i0, j0),
+                self.fetch_u(src, e, i0 + 1, j0),
+                self.fetch_u(src, e, i0, j0 + 1),
+                self.fetch_u(src, e, i0 + 1, j0 + 1),
+            ],
+            t: [fx - i0 as f32, fy - j0 as f32],
+        }
+    }
+
+    fn stencil_v(&self, src: Src, e: usize, x: f32, y: f32) -> Stencil {
+        let fx = (x / self.p.dx).clamp(0.0, self.p.nx as f32) - 0.5;
+        let fy = (y / self.p.dy).clamp(0.0, self.p.ny as f32);
+        let i0 = fx.floor() as i32;
+        let j0 = (fy.floor() as i32).min(self.ny() - 1);
+        Stencil {
+            vals: [
+                self.fetch_v(src, e, i0, j0),
+                self.fetch_v(src, e, i0 + 1, j0),
+                self.fetch_v(src, e, i0, j0 + 1),
+                self.fetch_v(src, e, i0 + 1, j0 + 1),
+            ],
+            t: [fx - i0 as f32, fy - j0 as f32],
+        }
+    }
+
+    fn velocity(&self, e: usize, pos: [f32; 2]) -> [f32; 2] {
+        [
+            self.stencil_u(Src::In, e, pos[0], pos[1]).bilerp(),
+            self.stencil_v(Src::In, e, pos[0], pos[1]).bilerp(),
+        ]
+    }
+
+    fn trace(&self, e: usize, pos: [f32; 2], h: f32) -> [f32; 2] {
+        let v0 = self.velocity(e, pos);
+        let mid = [pos[0] - 0.5 * h * v0[0], pos[1] - 0.5 * h * v0[1]];
+        let v1 = self.velocity(e, mid);
+        [pos[0] - h * v1[0], pos[1] - h * v1[1]]
+    }
+
+    fn u_pos(&self, i: usize, j: usize) -> [f32; 2] {
+        [i as f32 * self.p.dx, (j as f32 + 0.5) * self.p.dy]
+    }
+
+    fn v_pos(&self, i: usize, j: usize) -> [f32; 2] {
+        [(i as f32 + 0.5) * self.p.dx, j as f32 * self.p.dy]
+    }
+
+    fn sl_u(&self, src: Src, e: usize, i: usize, j: usize, h: f32) -> f32 {
+        let d = self.trace(e, self.u_pos(i, j), h);
+        self.stencil_u(src, e, d[0], d[1]).bilerp()
+    }
+
+    fn sl_v(&self, src: Src, e: usize, i: usize, j: usize, h: f32) -> f32 {
+        let d = self.trace(e, self.v_pos(i, j), h);
+        self.stencil_v(src, e, d[0], d[1]).bilerp()
+    }
+
+    /// MacCormack correction of u face (i, j), clamped to the extrema of the forward stencil.
+    fn maccormack_u(&self, e: usize, i: usize, j: usize) -> f32 {
+        let back = self.sl_u(Src::Hat, e, i, j, -self.p.dt);
+        let d = self.trace(e, self.u_pos(i, j), self.p.dt);
+        let st = self.stencil_u(Src::Diffused, e, d[0], d[1]);
+        let w = self.value_u(Src::Diffused, e, i as i32, j as i32);
+        (self.u_hat[u_idx(self.p, e, i, j)] + 0.5 * (w - back)).clamp(st.min(), st.max())
+    }
+
+    fn maccormack_v(&self, e: usize, i: usize, j: usize) -> f32 {
+        let back = self.sl_v(Src::Hat, e, i, j, -self.p.dt);
+        let d = self.trace(e, self.v_pos(i, j), self.p.dt);
+        let st = self.stencil_v(Src::Diffused, e, d[0], d[1]);
+        let w = self.value_v(Src::Diffused, e, i as i32, j as i32);
+        (self.v_hat[v_idx(self.p, e, i, j)] + 0.5 * (w - back)).clamp(st.min(), st.max())
+    }
+}
+
+struct Stencil {
+    vals: [f32; 4],
+    t: [f32; 2],
+}
+
+fn mix(a: f32, b: f32, t: f32) -> f32 {
+    a * (1.0 - t) + b * t
+}
+
+impl Stencil {
+    fn bilerp(&self) -> f32 {
+        let bottom = mix(self.vals[0], self.vals[1], self.t[0]);
+        let top = mix(self.vals[2], self.vals[3], self.t[0]);
+        mix(bottom, top, self.t[1])
+    }
+    fn min(&self) -> f32 {
+        self.vals.iter().copied().fold(f32::INFINITY, f32::min)
+    }
+    fn max(&self) -> f32 {
+        self.vals.iter().copied().fold(f32::NEG_INFINITY, f32::max)
+    }
+}
+
+/// Inputs of the momentum predictor for the whole batch.
+pub struct AdvectInputs<'a> {
+    pub u: &'a [f32],
+    pub v: &'a [f32],
+    /// [E][ny][nx] (chi, u_body, v_body, 0).
+    pub body: &'a [[f32; 4]],
+    /// [E][S] inlet centreline velocity.
+    pub inlet: &'a [f32],
+    pub substep: usize,
+}
+
+/// Twin of `advect.wgsl`: returns (u*, v*).
+pub fn advect(p: &GpuParams, scheme: Advection, inp: &AdvectInputs) -> (Vec<f32>, Vec<f32>) {
+    let (nx, ny, ne) = (p.nx as usize, p.ny as usize, p.n_env as usize);
+    let mut g = G {
+        p,
+        u: inp.u,
+        v: inp.v,
+        u_hat: &[],
+        v_hat: &[],
+    };
+    // MacCormack predictor: u_hat = A(w).
+    let (mut u_hat, mut v_hat) = (vec![0.0; inp.u.len()], vec![0.0; inp.v.len()]);
+    if scheme == Advection::Maccormack {
+        for e in 0..ne {
+            for j in 0..ny {
+                for i in 0..=nx {
+                    let k = u_idx(p, e, i, j);
+                    u_hat[k] = if i == 0 {
+                        inp.u[k]
+                    } else {
+                        g.sl_u(Src::Diffused, e, i, j, p.dt)
+                    };
+                }
+            }
+            for j in 0..=ny {
+                for i in 0..nx {
+                    let k = v_idx(p, e, i, j);
+                    v_hat[k] = if j == 0 || j == ny {
+                        0.0
+                    } else {
+                        g.sl_v(Src::Diffused, e, i, j, p.dt)
+                    };
+                }
+            }
+        }
+    }
+    g.u_hat = &u_hat;
+    g.v_hat = &v_hat;
+    let mut u_out = vec![0.0; inp.u.len()];
+    let mut v_out = vec![0.0; inp.v.len()];
+    for e in 0..ne {
+        let centre = inp.inlet[e * p.substeps as usize + inp.substep];
+        for j in 0..ny {
+            for i in 0..=nx {
+                u_out[u_idx(p, e, i, j)] = if i == 0 {
+                    let y = (j as f32 + 0.5) * p.dy;
+                    4.0 * centre * y * (p.height - y) / (p.height * p.height)
+                } else {
+                    let w = match scheme {
+                        Advection::SemiLagrangian => g.sl_u(Src::Diffused, e, i, j, p.dt),
+                        Advection::Maccormack => g.maccormack_u(e, i, j),
+                    };
+                    let a = inp.body[c_idx(p, e, i.max(1) - 1, j)];
+                    let b = inp.body[c_idx(p, e, i.min(nx - 1), j)];
+                    let chi = 0.5 * (a[0] + b[0]);
+                    (1.0 - chi) * w + 0.5 * (a[0] * a[1] + b[0] * b[1])
+                };
+            }
+        }
+        for j in 0..=ny {
+            for i in 0..nx {
+                v_out[v_idx(p, e, i, j)] = if j == 0 || j == ny {
+                    0.0
+                } else {
+                    let w = match scheme {
+                        Advection::SemiLagrangian => g.sl_v(Src::Diffused, e, i, j, p.dt),
+                        Advection::Maccormack => g.maccormack_v(e, i, j),
+                    };
+                    let a = inp.body[c_idx(p, e, i, j - 1)];
+                    let b = inp.body[c_idx(p, e, i, j)];
+                    let chi = 0.5 * (a[0] + b[0]);
+                    (1.0 - chi) * w + 0.5 * (a[0] * a[2] + b[0] * b[2])
+                };
+            }
+        }
+    }
+    (u_out, v_out)
+}
+
+/// Twin of `pressure_rhs.wgsl`: returns (modes [E][ny][nx], divstar [E][nx]).
+pub fn pressure_rhs(p: &GpuParams, poisson: &[f32], u: &[f32], v: &[f32]) -> (Vec<f32>, Vec<f32>) {
+    let (nx, ny, ne) = (p.nx as usize, p.ny as usize, p.n_env as usize);
+    let mut modes = vec![0.0; ne * nx * ny];
+    let mut divstar = vec![0.0; ne * nx];
+    for e in 0..ne {
+        for k in 0..ny {
+            for i in 0..nx {
+                let (mut acc, mut dmax) = (0.0f32, 0.0f32);
+                for j in 0..ny {
+                    let div = (u[u_idx(p, e, i + 1, j)] - u[u_idx(p, e, i, j)]) / p.dx
+                        + (v[v_idx(p, e, i, j + 1)] - v[v_idx(p, e, i, j)]) / p.dy;
+                    acc += poisson[j * ny + k] * div;
+                    dmax = dmax.max(div.abs());
+                }
+                modes[(e * ny + k) * nx + i] = acc * p.rho / p.dt;
+                if k == 0 {
+                    divstar[e * nx + i] = dmax;
+                }
+            }
+        }
+    }
+    (modes, divstar)
+}
+
+/// Twin of `pressure_solve.wgsl`: in place on the modes.
+pub fn pressure_solve(p: &GpuParams, poisson: &[f32], modes: &mut [f32]) {
+    let (nx, ny, ne) = (p.nx as usize, p.ny as usize, p.n_env as usize);
+    let dx2 = p.dx * p.dx;
+    for e in 0..ne {
+        for k in 0..ny {
+            let base = (e * ny + k) * nx;
+            let c_base = ny * ny + k * nx;
+            let m_base = ny * ny + ny * nx + k * nx;
+            let mut prev = 0.0f32;
+            for i in 0..nx {
+                let d = (modes[base + i] * dx2 - prev) * poisson[m_base + i];
+                modes[base + i] = d;
+                prev = d;
+            }
+            let mut next = 0.0f32;
+            for i in (0..nx).rev() {
+                let x = modes[base + i] - poisson[c_base + i] * next;
+                modes[base + i] = x;
+                next = x;
+            }
+        }
+    }
+}
+
+/// Twin of `project.wgsl`: corrects u, v in place and returns p [E][ny][nx].
+pub fn project(
+    p: &GpuParams,
+    poisson: &[f32],
+    modes: &[f32],
+    u: &mut [f32],
+    v: &mut [f32],
+) -> Vec<f32> {
+    let (nx, ny, ne) = (p.nx as usize, p.ny as usize, p.n_env as usize);
+    let p_cell = |e: usize, i: usize, j: usize| {
+        let mut acc = 0.0f32;
+        for k in 0..ny {
+            acc += poisson[j * ny + k] * modes[(e * ny + k) * nx + i];
+        }
+        acc
+    };
+    let scale = p.dt / p.rho;
+    let mut pres = vec![0.0; ne * nx * ny];
+    for e in 0..ne {
+        for j in 0..=ny {
+            for i in 0..=nx {
+                let mut here = 0.0;
+                if i < nx && j < ny {
+                    here = p_cell(e, i, j);
+                    pres[c_idx(p, e, i, j)] = here;
+                }
+                if j < ny && i >= 1 {
+                    let left = p_cell(e, i - 1, j);
+                    let right = if i == nx { -left } else { here };
+                    u[u_idx(p, e, i, j)] -= scale * (right - left) / p.dx;
+                }
+                if i < nx && j >= 1 && j < ny {
+                    let below = p_cell(e, i, j - 1);
+                    v[v_idx(p, e, i, j)] -= scale * (here - below) / p.dy;
+                }
+            }
+        }
+    }
+    pres
+}
+
+/// Twin of `diagnostics.wgsl`: the health of every environment.
+pub fn diagnostics(
+    p: &GpuParams,
+    u: &[f32],
+    v: &[f32],
+    pres: &[f32],
+    divstar: &[f32],
+) -> Vec<EnvHealth> {
+    let (nx, ny, ne) = (p.nx as usize, p.ny as usize, p.n_env as usize);
+    let finite = |x: f32| x.is_finite();
+    (0..ne)
+        .map(|e| {
+            let mut h = EnvHealth {
+                flux_min: f32::MAX,
+                flux_max: f32::MIN,
+                ..Default::default()
+            };
+            for i in 0..=nx {
+                let (mut flux, mut bad) = (0.0f32, 0u32);
+                for j in 0..ny {
+                    let uc = u[u_idx(p, e, i, j)];
+                    flux += uc * p.dy;
+                    h.max_speed = h.max_speed.max(uc.abs());
+                    bad += !finite(uc) as u32;
+                    if i < nx {
+                        let div = (u[u_idx(p, e, i + 1, j)] - uc) / p.dx
+                            + (v[v_idx(p, e, i, j + 1)] - v[v_idx(p, e, i, j)]) / p.dy;
+                        h.max_div = h.max_div.max(div.abs());
+                        let vc = v[v_idx(p, e, i, j)];
+                        h.max_speed = h.max_speed.max(vc.abs());
+                        let pc = pres[c_idx(p, e, i, j)];
+                        bad += (!finite(vc) || !finite(pc) || !finite(div)) as u32;
+                    }
+                }
+                h.flux_min = h.flux_min.min(flux);
+                h.flux_max = h.flux_max.max(flux);
+                h.nonfinite += bad;
+                if i == 0 {
+                    h.inlet_flux = flux;
+                }
+            }
+            h.div_before = divstar[e * nx..(e + 1) * nx]
+                .iter()
+                .copied()
+                .fold(0.0, f32::max);
+            h
+        })
+        .collect()
+}
+
+/// A whole batch advanced on the CPU with the twins (the reference for whole-step tests).
+pub struct CpuBatch {
+    pub params: GpuParams,
+    pub scheme: Advection,
+    pub poisson: Vec<f32>,
+    pub u: Vec<f32>,
+    pub v: Vec<f32>,
+    pub p: Vec<f32>,
+    pub body: Vec<[f32; 4]>,
+    pub divstar: Vec<f32>,
+}
+
+impl CpuBatch {
+    /// One control step; `inlet` is [E][S].
+    pub fn step(&mut self, inlet: &[f32]) -> Vec<EnvHealth> {
+        let p = self.params;
+        for s in 0..p.substeps as usize {
+            let (mut u, mut v) = advect(
+                &p,
+                self.scheme,
+                &AdvectInputs {
+                    u: &self.u,
+                    v: &self.v,
+                    body: &self.body,
+                    inlet,
+                    substep: s,
+                },
+            );
+            let (mut modes, divstar) = pressure_rhs(&p, &self.poisson, &u, &v);
+            pressure_solve(&p, &self.poisson, &mut modes);
+            self.p = project(&p, &self.poisson, &modes, &mut u, &mut v);
+            self.u = u;
+            self.v = v;
+            self.divstar = divstar;
+        }
+        diagnostics(&p, &self.u, &self.v, &self.p, &self.divstar)
+    }
+}

@@ -1,0 +1,749 @@
+//! A batch of E channel flows on the GPU, advanced one control step (S substeps) per
+//! submission with no read-back in between; after the step one small read-back of the health
+//! of every environment.
+//!
+//! Per substep (4 dispatches with semi-Lagrangian advection, 5 with MacCormack):
+//!   advect [+ correct]  u* = A(u^n) + dt nu lap u^n, boundary values, Brinkman blend
+//!   pressure_rhs        phat = Q^T (rho/dt div u*)          (y-cosine modes per column)
+//!   pressure_solve      (Lx + lambda_k) p_k = phat_k         (Thomas along x per mode: exact)
+//!   project             p = Q p_k;  u = u* - dt/rho grad p
+//! Buffers ([E] outermost): u[2] [E][ny][nx+1] and v[2] [E][ny+1][nx] (ping-pong), u_hat/v_hat
+//! (MacCormack), p and modes [E][ny][nx], body [E][ny][nx] vec4 (chi, u_body, v_body, 0),
+//! inlet [E][S], poisson tables, divstar [E][nx], colstats [E][nx+1] vec4, health [E][2] vec4.
+
+use thiserror::Error;
+use wgpu::util::DeviceExt;
+
+use super::{EnvHealth, Grid, poisson::PoissonTables};
+use crate::config::{Advection, Resolved};
+use crate::gpu::kernels::{
+    Advect, Diagnostics, Dims, FieldBinding, FieldLayout, PressureRhs, PressureSolve, Project,
+    map_and_read, read_buffer,
+};
+use crate::gpu::params::{GpuParams, SubstepUniform};
+use crate::gpu::{GpuContext, GpuError};
+use crate::waveform::Waveform;
+
+#[derive(Debug, Error)]
+pub enum SimError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error(
+        "a batch of {n_env} environments at {nx} x {ny} needs a {need} MiB buffer, above this \
+         adapter's {limit} MiB storage-binding limit: use at most {max_env} environments \
+         (`fluxswarm-gpu info` lists the limits)"
+    )]
+    TooLarge {
+        n_env: usize,
+        nx: usize,
+        ny: usize,
+        need: u64,
+        limit: u64,
+        max_env: usize,
+    },
+    #[error("environment index {0} is outside the batch")]
+    NoSuchEnv(usize),
+    #[error("the batch needs at least one environment")]
+    Empty,
+}
+
+/// One stage of the substep, for tests and timing by elimination.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    Advect,
+    PressureRhs,
+    PressureSolve,
+    Project,
+    Diagnostics,
+}
+
+/// Pressure iterations per substep: the fast solver is exact for the channel's matrix.
+pub const PRESSURE_ITERATIONS_PER_SUBSTEP: u32 = 1;
+
+/// Cell-centred fields of one environment, [ny][nx], row 0 at the bottom wall.
+#[derive(Debug, Clone)]
+pub struct Fields {
+    pub nx: usize,
+    pub ny: usize,
+    /// Face velocities as stored: u [ny][nx+1], v [ny+1][nx] (m/s).
+    pub u_faces: Vec<f32>,
+    pub v_faces: Vec<f32>,
+    /// Pressure at cell centres (Pa).
+    pub p: Vec<f32>,
+}
+
+impl Fields {
+    /// u_x at cell centres (mean of the two faces), [ny][nx].
+    pub fn ux_cells(&self) -> Vec<f32> {
+        let (nx, ny) = (self.nx, self.ny);
+        (0..ny)
+            .flat_map(|j| (0..nx).map(move |i| (j, i)))
+            .map(|(j, i)| {
+                0.5 * (self.u_faces[j * (nx + 1) + i] + self.u_faces[j * (nx + 1) + i + 1])
+            })
+            .collect()
+    }
+
+    /// u_y at cell centres, [ny][nx].
+    pub fn uy_cells(&self) -> Vec<f32> {
+        let (nx, ny) = (self.nx, self.ny);
+        (0..ny)
+            .flat_map(|j| (0..nx).map(move |i| (j, i)))
+            .map(|(j, i)| 0.5 * (self.v_faces[j * nx + i] + self.v_faces[(j + 1) * nx + i]))
+            .collect()
+    }
+}
+
+struct Pipelines {
+    layout: FieldLayout,
+    advect: Advect,
+    rhs: PressureRhs,
+    solve: PressureSolve,
+    project: Project,
+    diagnostics: Diagnostics,
+}
+
+struct Buffers {
+    params: wgpu::Buffer,
+    substep: wgpu::Buffer,
+    u: [wgpu::Buffer; 2],
+    v: [wgpu::Buffer; 2],
+    u_hat: wgpu::Buffer,
+    v_hat: wgpu::Buffer,
+    p: wgpu::Buffer,
+    modes: wgpu::Buffer,
+    body: wgpu::Buffer,
+    inlet: wgpu::Buffer,
+    poisson: wgpu::Buffer,
+    divstar: wgpu::Buffer,
+    colstats: wgpu::Buffer,
+    health: wgpu::Buffer,
+    health_staging: wgpu::Buffer,
+}
+
+/// E channel flows advanced together.
+pub struct FluidBatch {
+    ctx_device: wgpu::Device,
+    ctx_queue: wgpu::Queue,
+    grid: Grid,
+    params: GpuParams,
+    scheme: Advection,
+    waveform: Waveform,
+    n_env: usize,
+    substeps: usize,
+    control_dt: f64,
+    density: f64,
+    viscosity: f64,
+    substep_stride: u32,
+    pipelines: Pipelines,
+    buffers: Buffers,
+    /// bind[g] reads u[g], v[g] and writes u[1-g], v[1-g].
+    bind: [wgpu::BindGroup; 2],
+    /// Which of u[0], u[1] holds the current field.
+    cur: usize,
+    /// Time of each environment (s), measured from its reset.
+    time_s: Vec<f64>,
+    /// Waveform phase offset of each environment (s).
+    phase_s: Vec<f64>,
+    /// Host copy of the body buffer (solid fraction, body velocity) for writing fields.
+    body_host: Vec<[f32; 4]>,
+    steps: u64,
+}
+
+/// Bytes of the largest single buffer of one environment (the body buffer, 16 B per cell).
+pub fn largest_buffer_per_env(grid: &Grid) -> u64 {
+    (grid.n_cells() * 16)
+        .max(grid.n_u() * 4)
+        .max(grid.n_v() * 4) as u64
+}
+
+/// Bytes of all buffers of one environment.
+pub fn bytes_per_env(grid: &Grid, substeps: usize) -> u64 {
+    let f = 4u64;
+    let vel = (grid.n_u() + grid.n_v()) as u64 * f;
+    3 * vel // u, v ping-pong and u_hat/v_hat
+        + 2 * grid.n_cells() as u64 * f // p, modes
+        + grid.n_cells() as u64 * 16 // body
+        + substeps as u64 * f
+        + grid.nx as u64 * f
+        + (grid.nx as u64 + 1) * 16
+        + 32
+}
+
+/// Largest batch the adapter's binding and dispatch limits allow at this grid.
+pub fn max_batch(limits: &wgpu::Limits, grid: &Grid) -> usize {
+    let binding = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    let by_binding = (binding / largest_buffer_per_env(grid)) as usize;
+    by_binding.min(limits.max_compute_workgroups_per_dimension as usize)
+}
+
+impl FluidBatch {
+    pub fn new(ctx: &GpuContext, resolved: &Resolved, n_env: usize) -> Result<Self, SimError> {
+        let config = &resolved.config;
+        let grid = Grid::from_config(config);
+        if n_env == 0 {
+            return Err(SimError::Empty);
+        }
+        let max_env = max_batch(&ctx.limits, &grid);
+        if n_env > max_env {
+            return Err(SimError::TooLarge {
+                n_env,
+                nx: grid.nx,
+                ny: grid.ny,
+                need: (largest_buffer_per_env(&grid) * n_env as u64) >> 20,
+                limit: ctx.limits.max_storage_buffer_binding_size >> 20,
+                max_env,
+            });
+        }
+        let substeps = config.time.substeps as usize;
+        let params = GpuParams {
+            nx: grid.nx as u32,
+            ny: grid.ny as u32,
+            n_env: n_env as u32,
+            substeps: substeps as u32,
+            dx: grid.dx() as f32,
+            dy: grid.dy() as f32,
+            dt: config.dt_sub() as f32,
+            nu: config.kinematic_viscosity() as f32,
+            rho: config.fluid.density_kg_m3 as f32,
+            height: grid.height_m as f32,
+            pad0: 0.0,
+            pad1: 0.0,
+        };
+        let device = &ctx.device;
+        let layout = FieldLayout::new(device);
+        let pipelines = Pipelines {
+            advect: Advect::new(device, &layout),
+            rhs: PressureRhs::new(device, &layout),
+            solve: PressureSolve::new(device, &layout),
+            project: Project::new(device, &layout),
+            diagnostics: Diagnostics::new(device, &layout),
+            layout,
+        };
+        let stride = ctx.limits.min_uniform_buffer_offset_alignment.max(16);
+        let buffers = Self::create_buffers(ctx, &grid, &params, n_env, substeps, stride);
+        let bind = [0, 1].map(|g| Self::bind_group(device, &pipelines.layout, &buffers, g));
+        let mut batch = Self {
+            ctx_device: device.clone(),
+            ctx_queue: ctx.queue.clone(),
+            grid,
+            params,
+            scheme: config.solver.advection,
+            waveform: resolved.waveform.clone(),
+            n_env,
+            substeps,
+            control_dt: config.time.control_dt_s,
+            density: config.fluid.density_kg_m3,
+            viscosity: config.fluid.viscosity_pa_s,
+            substep_stride: stride,
+            pipelines,
+            buffers,
+            bind,
+            cur: 0,
+            time_s: vec![0.0; n_env],
+            phase_s: vec![0.0; n_env],
+            body_host: vec![[0.0; 4]; n_env * grid.n_cells()],
+            steps: 0,
+        };
+        for e in 0..n_env {
+            batch.reset_env(e)?;
+        }
+        Ok(batch)
+    }
+
+    fn create_buffers(
+        ctx: &GpuContext,
+        grid: &Grid,
+        params: &GpuParams,
+        n_env: usize,
+        substeps: usize,
+        stride: u32,
+    ) -> Buffers {
+        let device = &ctx.device;
+        let storage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_DST
+            | wgpu::BufferUsages::COPY_SRC;
+        let zeros = |label: &str, bytes: usize| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: (bytes.max(16) as u64).next_multiple_of(16),
+                usage: storage,
+                mapped_at_creation: false,
+            })
+        };
+        let f = 4;
+        let mut slots = vec![0u8; stride as usize * substeps];
+        for s in 0..substeps {
+            let u = SubstepUniform {
+                index: s as u32,
+                pad: [0; 3],
+            };
+            let at = s * stride as usize;
+            slots[at..at + 16].copy_from_slice(bytemuck::bytes_of(&u));
+        }
+        Buffers {
+            params: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("params"),
+                contents: bytemuck::bytes_of(params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            }),
+            substep: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("substep slots"),
+                contents: &slots,
+                usage: wgpu::BufferUsages::UNIFORM,
+            }),
+            u: [
+                zeros("u0", n_env * grid.n_u() * f),
+                zeros("u1", n_env * grid.n_u() * f),
+            ],
+            v: [
+                zeros("v0", n_env * grid.n_v() * f),
+                zeros("v1", n_env * grid.n_v() * f),
+            ],
+            u_hat: zeros("u_hat", n_env * grid.n_u() * f),
+            v_hat: zeros("v_hat", n_env * grid.n_v() * f),
+            p: zeros("p", n_env * grid.n_cells() * f),
+            modes: zeros("modes", n_env * grid.n_cells() * f),
+            body: zeros("body", n_env * grid.n_cells() * 16),
+            inlet: zeros("inlet", n_env * substeps * f),
+            poisson: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("poisson"),
+                contents: bytemuck::cast_slice(&PoissonTables::new(grid).to_gpu()),
+                usage: storage,
+            }),
+            divstar: zeros("divstar", n_env * grid.nx * f),
+            colstats: zeros("colstats", n_env * (grid.nx + 1) * 16),
+            health: zeros("health", n_env * 32),
+            health_staging: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("health staging"),
+                size: (n_env * 32) as u64,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+        }
+    }
+
+    fn bind_group(
+        device: &wgpu::Device,
+        layout: &FieldLayout,
+        b: &Buffers,
+        g: usize,
+    ) -> wgpu::BindGroup {
+        let storage: [(&wgpu::Buffer, FieldBinding); 14] = [
+            (&b.u[g], FieldBinding::UIn),
+            (&b.v[g], FieldBinding::VIn),
+            (&b.u[1 - g], FieldBinding::UOut),
+            (&b.v[1 - g], FieldBinding::VOut),
+            (&b.u_hat, FieldBinding::UHat),
+            (&b.v_hat, FieldBinding::VHat),
+            (&b.p, FieldBinding::Pressure),
+            (&b.modes, FieldBinding::Modes),
+            (&b.body, FieldBinding::Body),
+            (&b.inlet, FieldBinding::Inlet),
+            (&b.poisson, FieldBinding::Poisson),
+            (&b.divstar, FieldBinding::DivStar),
+            (&b.colstats, FieldBinding::ColStats),
+            (&b.health, FieldBinding::Health),
+        ];
+        let mut entries = vec![
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: b.params.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &b.substep,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(16),
+                }),
+            },
+        ];
+        entries.extend(
+            storage
+                .iter()
+                .map(|(buffer, binding)| wgpu::BindGroupEntry {
+                    binding: *binding as u32,
+                    resource: buffer.as_entire_binding(),
+                }),
+        );
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(if g == 0 { "fields 0->1" } else { "fields 1->0" }),
+            layout: &layout.bind_group_layout,
+            entries: &entries,
+        })
+    }
+
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    pub fn n_env(&self) -> usize {
+        self.n_env
+    }
+
+    pub fn substeps(&self) -> usize {
+        self.substeps
+    }
+
+    pub fn params(&self) -> &GpuParams {
+        &self.params
+    }
+
+    pub fn scheme(&self) -> Advection {
+        self.scheme
+    }
+
+    pub fn waveform(&self) -> &Waveform {
+        &self.waveform
+    }
+
+    pub fn control_dt(&self) -> f64 {
+        self.control_dt
+    }
+
+    /// Control steps taken since the batch was created.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Time of environment e since its reset (s).
+    pub fn time_s(&self, e: usize) -> f64 {
+        self.time_s[e]
+    }
+
+    /// Inlet centreline velocity of environment e now (m/s).
+    pub fn inlet_u(&self, e: usize) -> f64 {
+        self.waveform.at(self.time_s[e] + self.phase_s[e])
+    }
+
+    /// Dispatches per substep (advection scheme dependent) and per control step.
+    pub fn dispatches_per_substep(&self) -> u32 {
+        Advect::dispatches(self.scheme) + 3
+    }
+
+    pub fn dispatches_per_control_step(&self) -> u32 {
+        self.dispatches_per_substep() * self.substeps as u32 + 2
+    }
+
+    fn check_env(&self, e: usize) -> Result<(), SimError> {
+        if e < self.n_env {
+            Ok(())
+        } else {
+            Err(SimError::NoSuchEnv(e))
+        }
+    }
+
+    /// Resets environment e to the developed Poiseuille flow of U(phase) with its linear
+    /// pressure, time 0, waveform phase 0, no solid.
+    pub fn reset_env(&mut self, e: usize) -> Result<(), SimError> {
+        self.reset_env_with_phase(e, 0.0)
+    }
+
+    /// As [`Self::reset_env`], starting the waveform at `phase_s`.
+    pub fn reset_env_with_phase(&mut self, e: usize, phase_s: f64) -> Result<(), SimError> {
+        self.check_env(e)?;
+        self.time_s[e] = 0.0;
+        self.phase_s[e] = phase_s;
+        let g = self.grid;
+        let u0 = self.waveform.at(phase_s);
+        let mut u = vec![0.0f32; g.n_u()];
+        for j in 0..g.ny {
+            let w = g.inlet_profile(u0, j) as f32;
+            u[j * (g.nx + 1)..(j + 1) * (g.nx + 1)].fill(w);
+        }
+        let v = vec![0.0f32; g.n_v()];
+        // Poiseuille: dp/dx = -8 mu U / H^2, p = 0 at the outlet face.
+        let grad = 8.0 * self.viscosity * u0 / (g.height_m * g.height_m);
+        let p: Vec<f32> = (0..g.n_cells())
+            .map(|c| {
+                let x = ((c % g.nx) as f64 + 0.5) * g.dx();
+                (grad * (g.length_m - x)) as f32
+            })
+            .collect();
+        self.write_env(FieldBinding::UIn, e, &u)?;
+        self.write_env(FieldBinding::VIn, e, &v)?;
+        self.write_env(FieldBinding::Pressure, e, &p)?;
+        self.set_body(e, &vec![[0.0; 4]; g.n_cells()])?;
+        Ok(())
+    }
+
+    /// Sets the solid fraction and body velocity of every cell of environment e:
+    /// `[chi, u_body, v_body, 0]`, [ny][nx] (chi in [0, 1]).
+    pub fn set_body(&mut self, e: usize, cells: &[[f32; 4]]) -> Result<(), SimError> {
+        self.check_env(e)?;
+        let n = self.grid.n_cells();
+        assert_eq!(cells.len(), n, "body needs one entry per cell");
+        self.body_host[e * n..(e + 1) * n].copy_from_slice(cells);
+        self.write_env_pod(FieldBinding::Body, e, cells)
+    }
+
+    fn buffer(&self, which: FieldBinding) -> &wgpu::Buffer {
+        let b = &self.buffers;
+        match which {
+            FieldBinding::UIn => &b.u[self.cur],
+            FieldBinding::VIn => &b.v[self.cur],
+            FieldBinding::UOut => &b.u[1 - self.cur],
+            FieldBinding::VOut => &b.v[1 - self.cur],
+            FieldBinding::UHat => &b.u_hat,
+            FieldBinding::VHat => &b.v_hat,
+            FieldBinding::Pressure => &b.p,
+            FieldBinding::Modes => &b.modes,
+            FieldBinding::Body => &b.body,
+            FieldBinding::Inlet => &b.inlet,
+            FieldBinding::Poisson => &b.poisson,
+            FieldBinding::DivStar => &b.divstar,
+            FieldBinding::ColStats => &b.colstats,
+            FieldBinding::Health => &b.health,
+        }
+    }
+
+    /// Elements (of 4 bytes) one environment holds in a buffer.
+    fn words_per_env(&self, which: FieldBinding) -> usize {
+        let g = &self.grid;
+        match which {
+            FieldBinding::UIn | FieldBinding::UOut | FieldBinding::UHat => g.n_u(),
+            FieldBinding::VIn | FieldBinding::VOut | FieldBinding::VHat => g.n_v(),
+            FieldBinding::Pressure | FieldBinding::Modes => g.n_cells(),
+            FieldBinding::Body => 4 * g.n_cells(),
+            FieldBinding::Inlet => self.substeps,
+            FieldBinding::Poisson => 0,
+            FieldBinding::DivStar => g.nx,
+            FieldBinding::ColStats => 4 * (g.nx + 1),
+            FieldBinding::Health => 8,
+        }
+    }
+
+    fn write_env_pod<T: bytemuck::Pod>(
+        &self,
+        which: FieldBinding,
+        e: usize,
+        data: &[T],
+    ) -> Result<(), SimError> {
+        self.check_env(e)?;
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let per_env = self.words_per_env(which) * 4;
+        assert_eq!(
+            bytes.len(),
+            per_env,
+            "{which:?}: wrong length for one environment"
+        );
+        self.ctx_queue
+            .write_buffer(self.buffer(which), (e * per_env) as u64, bytes);
+        Ok(())
+    }
+
+    /// Overwrites environment e's part of a buffer (`UIn`/`VIn` are the current field).
+    pub fn write_env(&self, which: FieldBinding, e: usize, data: &[f32]) -> Result<(), SimError> {
+        self.write_env_pod(which, e, data)
+    }
+
+    /// Overwrites a whole buffer (all environments).
+    pub fn write_all(&self, which: FieldBinding, data: &[f32]) {
+        self.ctx_queue
+            .write_buffer(self.buffer(which), 0, bytemuck::cast_slice(data));
+    }
+
+    /// Reads a whole buffer (all environments).
+    pub fn read_all(&self, ctx: &GpuContext, which: FieldBinding) -> Result<Vec<f32>, SimError> {
+        let words = if which == FieldBinding::Poisson {
+            self.grid.ny * self.grid.ny + 2 * self.grid.n_cells()
+        } else {
+            self.words_per_env(which) * self.n_env
+        };
+        Ok(read_buffer(ctx, self.buffer(which), 0, (words * 4) as u64)?)
+    }
+
+    /// Reads environment e's part of a buffer.
+    pub fn read_env(
+        &self,
+        ctx: &GpuContext,
+        which: FieldBinding,
+        e: usize,
+    ) -> Result<Vec<f32>, SimError> {
+        self.check_env(e)?;
+        let bytes = (self.words_per_env(which) * 4) as u64;
+        Ok(read_buffer(
+            ctx,
+            self.buffer(which),
+            e as u64 * bytes,
+            bytes,
+        )?)
+    }
+
+    /// The current velocity and pressure of environment e (a full-field read-back).
+    pub fn fields(&self, ctx: &GpuContext, e: usize) -> Result<Fields, SimError> {
+        let g = self.grid;
+        let mut u_faces = self.read_env(ctx, FieldBinding::UIn, e)?;
+        let mut v_faces = self.read_env(ctx, FieldBinding::VIn, e)?;
+        // Solid cells hold the body velocity (SPEC section 7): set the faces of solid cells.
+        let body = &self.body_host[e * g.n_cells()..(e + 1) * g.n_cells()];
+        for j in 0..g.ny {
+            for i in 0..g.nx {
+                let [chi, ub, vb, _] = body[g.c_idx(i, j)];
+                if chi >= 0.5 {
+                    u_faces[g.u_idx(i, j)] = ub;
+                    u_faces[g.u_idx(i + 1, j)] = ub;
+                    v_faces[g.v_idx(i, j)] = vb;
+                    v_faces[g.v_idx(i, j + 1)] = vb;
+                }
+            }
+        }
+        Ok(Fields {
+            nx: g.nx,
+            ny: g.ny,
+            u_faces,
+            v_faces,
+            p: self.read_env(ctx, FieldBinding::Pressure, e)?,
+        })
+    }
+
+    /// Writes the inlet centreline velocity of every environment at the end of every substep
+    /// of the coming control step.
+    fn upload_inlet(&self) {
+        let dt_sub = self.control_dt / self.substeps as f64;
+        let values: Vec<f32> = (0..self.n_env)
+            .flat_map(|e| {
+                let t0 = self.time_s[e] + self.phase_s[e];
+                (0..self.substeps).map(move |s| (t0, s))
+            })
+            .map(|(t0, s)| self.waveform.at(t0 + (s as f64 + 1.0) * dt_sub) as f32)
+            .collect();
+        self.write_all(FieldBinding::Inlet, &values);
+    }
+
+    fn offset(&self, s: usize) -> u32 {
+        s as u32 * self.substep_stride
+    }
+
+    fn dims(&self) -> Dims {
+        Dims {
+            nx: self.grid.nx as u32,
+            ny: self.grid.ny as u32,
+            n_env: self.n_env as u32,
+        }
+    }
+
+    fn record_stage(&self, pass: &mut wgpu::ComputePass<'_>, stage: Stage, bind: usize, s: usize) {
+        let (b, o, d) = (&self.bind[bind], self.offset(s), self.dims());
+        let p = &self.pipelines;
+        match stage {
+            Stage::Advect => p.advect.record(pass, b, o, d, self.scheme),
+            Stage::PressureRhs => p.rhs.record(pass, b, o, d),
+            Stage::PressureSolve => p.solve.record(pass, b, o, d),
+            Stage::Project => p.project.record(pass, b, o, d),
+            Stage::Diagnostics => p.diagnostics.record(pass, b, o, d),
+        }
+    }
+
+    /// Advances every environment by one control step (S substeps, one submission) and reads
+    /// back the health of each.
+    pub fn step(&mut self, ctx: &GpuContext) -> Result<Vec<EnvHealth>, SimError> {
+        self.upload_inlet();
+        let mut enc = self
+            .ctx_device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("control step"),
+            });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("substeps"),
+                timestamp_writes: None,
+            });
+            let mut cur = self.cur;
+            for s in 0..self.substeps {
+                for stage in [
+                    Stage::Advect,
+                    Stage::PressureRhs,
+                    Stage::PressureSolve,
+                    Stage::Project,
+                ] {
+                    self.record_stage(&mut pass, stage, cur, s);
+                }
+                cur = 1 - cur;
+            }
+            // The diagnostics read the "out" side: the bind group whose output is `cur`.
+            self.record_stage(&mut pass, Stage::Diagnostics, 1 - cur, 0);
+            self.cur = cur;
+        }
+        let bytes = (self.n_env * 32) as u64;
+        enc.copy_buffer_to_buffer(
+            &self.buffers.health,
+            0,
+            &self.buffers.health_staging,
+            0,
+            bytes,
+        );
+        self.ctx_queue.submit([enc.finish()]);
+        for t in &mut self.time_s {
+            *t += self.control_dt;
+        }
+        self.steps += 1;
+        self.read_health_staging(ctx)
+    }
+
+    /// Health of the current state without stepping (e.g. of the initial state).
+    pub fn health(&self, ctx: &GpuContext) -> Result<Vec<EnvHealth>, SimError> {
+        let mut enc = self.ctx_device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            self.record_stage(&mut pass, Stage::Diagnostics, 1 - self.cur, 0);
+        }
+        let bytes = (self.n_env * 32) as u64;
+        enc.copy_buffer_to_buffer(
+            &self.buffers.health,
+            0,
+            &self.buffers.health_staging,
+            0,
+            bytes,
+        );
+        self.ctx_queue.submit([enc.finish()]);
+        self.read_health_staging(ctx)
+    }
+
+    fn read_health_staging(&self, ctx: &GpuContext) -> Result<Vec<EnvHealth>, SimError> {
+        let raw: Vec<[[f32; 4]; 2]> =
+            map_and_read(ctx, &self.buffers.health_staging, (self.n_env * 32) as u64)?;
+        Ok(raw.iter().map(EnvHealth::from_raw).collect())
+    }
+
+    /// Runs the given stages of substep `s` once on the current bind group, without swapping
+    /// the velocity buffers (for kernel tests and timing by elimination).
+    pub fn run_stages(
+        &self,
+        ctx: &GpuContext,
+        stages: &[Stage],
+        s: usize,
+        repeats: usize,
+    ) -> Result<(), SimError> {
+        let mut enc = self.ctx_device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            for _ in 0..repeats {
+                for &stage in stages {
+                    let bind = if stage == Stage::Diagnostics {
+                        1 - self.cur
+                    } else {
+                        self.cur
+                    };
+                    self.record_stage(&mut pass, stage, bind, s);
+                }
+            }
+        }
+        self.ctx_queue.submit([enc.finish()]);
+        ctx.wait()?;
+        Ok(())
+    }
+
+    /// Writes the inlet values of the coming control step (exposed for kernel tests).
+    pub fn prepare_inlet(&self) {
+        self.upload_inlet();
+    }
+
+    /// Density (kg/m^3) and dynamic viscosity (Pa s) of the fluid.
+    pub fn fluid_properties(&self) -> (f64, f64) {
+        (self.density, self.viscosity)
+    }
+}

@@ -1,7 +1,7 @@
 // Momentum predictor: explicit viscous diffusion, then semi-Lagrangian advection (RK2 trace
 // in the velocity u^n, bilinear), inlet/wall boundary values and Brinkman blending.
 //
-//   w = u^n + dt nu lap u^n   (evaluated on the fly at the stencil nodes: SRC_DIFFUSED)
+//   `diffuse`: w = u^n + dt nu lap u^n   (w_u, w_v; inlet and wall faces keep their values)
 //   u* = A(w),   then  u* <- (1 - chi_f) u* + chi_f u_body   (solid faces)
 //
 // Advecting the diffused field (sequential splitting) keeps the scheme stable at CFL ~ 1;
@@ -11,12 +11,61 @@
 //   `advect_predict`:     u_hat = A(w)
 //   `maccormack_correct`: u* = clamp(u_hat + (w - A^-1(u_hat)) / 2, extrema of A's stencil of w)
 // Dispatch: (ceil((nx+1)/64), ny+1, E); thread (i, j, e) owns u face (i, j) and v face (i, j).
-// Reads u_in/v_in (and u_hat/v_hat), body, inlet; writes u_out/v_out (or u_hat/v_hat).
+// Reads u_in/v_in, w_u/w_v (and u_hat/v_hat), body, inlet; writes w, u_hat/v_hat or u_out/v_out.
 
 fn inlet_profile(e: u32, j: u32) -> f32 {
     let y = (f32(j) + 0.5) * P.dy;
     let centre = inlet[e * P.substeps + S.index];
     return 4.0 * centre * y * (P.height - y) / (P.height * P.height);
+}
+
+fn fetch_u_in(e: u32, i: i32, j: i32) -> f32 {
+    return fetch_u(SRC_IN, e, i, j);
+}
+
+fn fetch_v_in(e: u32, i: i32, j: i32) -> f32 {
+    return fetch_v(SRC_IN, e, i, j);
+}
+
+// dt nu lap u at the stored u face (i, j) of the input field (ghosts as in common.wgsl).
+fn diffusion_u(e: u32, i: i32, j: i32) -> f32 {
+    let c = fetch_u_in(e, i, j);
+    let lx = fetch_u_in(e, i + 1, j) + fetch_u_in(e, i - 1, j) - 2.0 * c;
+    let ly = fetch_u_in(e, i, j + 1) + fetch_u_in(e, i, j - 1) - 2.0 * c;
+    return P.dt * P.nu * (lx / (P.dx * P.dx) + ly / (P.dy * P.dy));
+}
+
+fn diffusion_v(e: u32, i: i32, j: i32) -> f32 {
+    let c = fetch_v_in(e, i, j);
+    let lx = fetch_v_in(e, i + 1, j) + fetch_v_in(e, i - 1, j) - 2.0 * c;
+    let ly = fetch_v_in(e, i, j + 1) + fetch_v_in(e, i, j - 1) - 2.0 * c;
+    return P.dt * P.nu * (lx / (P.dx * P.dx) + ly / (P.dy * P.dy));
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn diffuse(@builtin(global_invocation_id) g: vec3<u32>) {
+    let i = g.x;
+    let j = g.y;
+    let e = g.z;
+    if (e >= P.n_env) {
+        return;
+    }
+    if (i <= P.nx && j < P.ny) {
+        let k = u_idx(e, i, j);
+        if (i == 0u) {
+            w_u[k] = u_in[k];
+        } else {
+            w_u[k] = u_in[k] + diffusion_u(e, i32(i), i32(j));
+        }
+    }
+    if (i < P.nx && j <= P.ny) {
+        let k = v_idx(e, i, j);
+        if (j == 0u || j == P.ny) {
+            w_v[k] = 0.0;
+        } else {
+            w_v[k] = v_in[k] + diffusion_v(e, i32(i), i32(j));
+        }
+    }
 }
 
 // Brinkman blend on a face between cells a and b: (1 - chi_f) w + (chi_a w_a + chi_b w_b) / 2
@@ -35,21 +84,13 @@ fn brinkman_v(e: u32, i: u32, j: u32, w: f32) -> f32 {
     return (1.0 - chi) * w + 0.5 * (a.x * a.z + b.x * b.z);
 }
 
-fn u_face_pos(i: u32, j: u32) -> vec2<f32> {
-    return vec2<f32>(f32(i) * P.dx, (f32(j) + 0.5) * P.dy);
-}
-
-fn v_face_pos(i: u32, j: u32) -> vec2<f32> {
-    return vec2<f32>((f32(i) + 0.5) * P.dx, f32(j) * P.dy);
-}
-
 fn sl_u(src: u32, e: u32, i: u32, j: u32, h: f32) -> f32 {
-    let d = trace(e, u_face_pos(i, j), h);
+    let d = trace_u_face(e, i, j, h);
     return bilerp(stencil_u(src, e, d.x, d.y));
 }
 
 fn sl_v(src: u32, e: u32, i: u32, j: u32, h: f32) -> f32 {
-    let d = trace(e, v_face_pos(i, j), h);
+    let d = trace_v_face(e, i, j, h);
     return bilerp(stencil_v(src, e, d.x, d.y));
 }
 
@@ -92,6 +133,19 @@ fn advect_diffuse(@builtin(global_invocation_id) g: vec3<u32>) {
     }
 }
 
+// MacCormack predictor with the extrema of its stencil (for the correction's clamp).
+fn predict_u(e: u32, i: u32, j: u32) -> vec4<f32> {
+    let d = trace_u_face(e, i, j, P.dt);
+    let st = stencil_u(SRC_DIFFUSED, e, d.x, d.y);
+    return vec4<f32>(bilerp(st), stencil_min(st), stencil_max(st), 0.0);
+}
+
+fn predict_v(e: u32, i: u32, j: u32) -> vec4<f32> {
+    let d = trace_v_face(e, i, j, P.dt);
+    let st = stencil_v(SRC_DIFFUSED, e, d.x, d.y);
+    return vec4<f32>(bilerp(st), stencil_min(st), stencil_max(st), 0.0);
+}
+
 @compute @workgroup_size(64, 1, 1)
 fn advect_predict(@builtin(global_invocation_id) g: vec3<u32>) {
     let i = g.x;
@@ -103,17 +157,17 @@ fn advect_predict(@builtin(global_invocation_id) g: vec3<u32>) {
     if (i <= P.nx && j < P.ny) {
         let k = u_idx(e, i, j);
         if (i == 0u) {
-            u_hat[k] = u_in[k];
+            u_hat[k] = vec4<f32>(u_in[k], u_in[k], u_in[k], 0.0);
         } else {
-            u_hat[k] = sl_u(SRC_DIFFUSED, e, i, j, P.dt);
+            u_hat[k] = predict_u(e, i, j);
         }
     }
     if (i < P.nx && j <= P.ny) {
         let k = v_idx(e, i, j);
         if (j == 0u || j == P.ny) {
-            v_hat[k] = 0.0;
+            v_hat[k] = vec4<f32>(0.0);
         } else {
-            v_hat[k] = sl_v(SRC_DIFFUSED, e, i, j, P.dt);
+            v_hat[k] = predict_v(e, i, j);
         }
     }
 }
@@ -129,26 +183,20 @@ fn maccormack_correct(@builtin(global_invocation_id) g: vec3<u32>) {
     if (i <= P.nx && j < P.ny) {
         var adv = 0.0;
         if (i > 0u) {
-            let pos = u_face_pos(i, j);
             let k = u_idx(e, i, j);
             let back = sl_u(SRC_HAT, e, i, j, -P.dt);
-            let d = trace(e, pos, P.dt);
-            let st = stencil_u(SRC_DIFFUSED, e, d.x, d.y);
-            let w = value_u(SRC_DIFFUSED, e, i32(i), i32(j));
-            adv = clamp(u_hat[k] + 0.5 * (w - back), stencil_min(st), stencil_max(st));
+            let h = u_hat[k];
+            adv = clamp(h.x + 0.5 * (w_u[k] - back), h.y, h.z);
         }
         u_out[u_idx(e, i, j)] = finish_u(e, i, j, adv);
     }
     if (i < P.nx && j <= P.ny) {
         var adv = 0.0;
         if (j > 0u && j < P.ny) {
-            let pos = v_face_pos(i, j);
             let k = v_idx(e, i, j);
             let back = sl_v(SRC_HAT, e, i, j, -P.dt);
-            let d = trace(e, pos, P.dt);
-            let st = stencil_v(SRC_DIFFUSED, e, d.x, d.y);
-            let w = value_v(SRC_DIFFUSED, e, i32(i), i32(j));
-            adv = clamp(v_hat[k] + 0.5 * (w - back), stencil_min(st), stencil_max(st));
+            let h = v_hat[k];
+            adv = clamp(h.x + 0.5 * (w_v[k] - back), h.y, h.z);
         }
         v_out[v_idx(e, i, j)] = finish_v(e, i, j, adv);
     }

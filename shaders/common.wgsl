@@ -8,6 +8,8 @@
 //   modes    [E][ny][nx]    phat[e][k][i]: y-cosine mode k of column i
 //   inlet    [E][substeps]  inlet centreline velocity U (m/s) at the end of each substep
 //   poisson  [ny*ny | ny*nx | ny*nx]  Q (orthonormal DCT-II, Q[j*ny + k]), Thomas c', 1/m
+//   w_u, w_v like u, v: the input velocity after one explicit diffusion step
+//   u_hat, v_hat like u, v but vec4: (MacCormack predictor, min, max of its stencil, 0)
 // Boundary ghosts: walls (y = 0, H) no-slip (u odd, v = 0 on the wall faces); inlet (x = 0)
 // Dirichlet u, v = 0 (v odd); outlet (x = L) zero-gradient velocity, p = 0 on the face.
 // Mirrors `src/gpu/params.rs` (GpuParams, SubstepUniform).
@@ -40,8 +42,8 @@ struct Substep {
 @group(0) @binding(3) var<storage, read_write> v_in: array<f32>;
 @group(0) @binding(4) var<storage, read_write> u_out: array<f32>;
 @group(0) @binding(5) var<storage, read_write> v_out: array<f32>;
-@group(0) @binding(6) var<storage, read_write> u_hat: array<f32>;
-@group(0) @binding(7) var<storage, read_write> v_hat: array<f32>;
+@group(0) @binding(6) var<storage, read_write> u_hat: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read_write> v_hat: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> p: array<f32>;
 @group(0) @binding(9) var<storage, read_write> phat: array<f32>;
 @group(0) @binding(10) var<storage, read_write> body: array<vec4<f32>>;
@@ -50,9 +52,11 @@ struct Substep {
 @group(0) @binding(13) var<storage, read_write> divstar: array<f32>;
 @group(0) @binding(14) var<storage, read_write> colstats: array<vec4<f32>>;
 @group(0) @binding(15) var<storage, read_write> health: array<vec4<f32>>;
+@group(0) @binding(16) var<storage, read_write> w_u: array<f32>;
+@group(0) @binding(17) var<storage, read_write> w_v: array<f32>;
 
 // What a sampler reads: the input velocity, the MacCormack predictor, or the input velocity
-// after one explicit diffusion step, w = u + dt nu lap u (evaluated on the fly).
+// after one explicit diffusion step, w = u + dt nu lap u (written by `diffuse`).
 const SRC_IN: u32 = 0u;
 const SRC_HAT: u32 = 1u;
 const SRC_DIFFUSED: u32 = 2u;
@@ -92,54 +96,24 @@ fn ghost_v(i: i32, j: i32) -> vec3<i32> {
     return vec3<i32>(min(i, i32(P.nx) - 1), jc, 1);
 }
 
-fn fetch_u_in(e: u32, i: i32, j: i32) -> f32 {
-    let m = ghost_u(i, j);
-    return f32(m.z) * u_in[u_idx(e, u32(m.x), u32(m.y))];
-}
-
-fn fetch_v_in(e: u32, i: i32, j: i32) -> f32 {
-    let m = ghost_v(i, j);
-    return f32(m.z) * v_in[v_idx(e, u32(m.x), u32(m.y))];
-}
-
-// dt nu lap u at the stored u face (i, j) of the input field.
-fn diffusion_u(e: u32, i: i32, j: i32) -> f32 {
-    let c = fetch_u_in(e, i, j);
-    let lx = fetch_u_in(e, i + 1, j) + fetch_u_in(e, i - 1, j) - 2.0 * c;
-    let ly = fetch_u_in(e, i, j + 1) + fetch_u_in(e, i, j - 1) - 2.0 * c;
-    return P.dt * P.nu * (lx / (P.dx * P.dx) + ly / (P.dy * P.dy));
-}
-
-fn diffusion_v(e: u32, i: i32, j: i32) -> f32 {
-    let c = fetch_v_in(e, i, j);
-    let lx = fetch_v_in(e, i + 1, j) + fetch_v_in(e, i - 1, j) - 2.0 * c;
-    let ly = fetch_v_in(e, i, j + 1) + fetch_v_in(e, i, j - 1) - 2.0 * c;
-    return P.dt * P.nu * (lx / (P.dx * P.dx) + ly / (P.dy * P.dy));
-}
-
-// Value at a stored u face. Diffused: boundary faces (the inlet) keep their value.
 fn value_u(src: u32, e: u32, i: i32, j: i32) -> f32 {
     let k = u_idx(e, u32(i), u32(j));
     if (src == SRC_HAT) {
-        return u_hat[k];
+        return u_hat[k].x;
     }
-    if (src == SRC_DIFFUSED && i > 0) {
-        return u_in[k] + diffusion_u(e, i, j);
+    if (src == SRC_DIFFUSED) {
+        return w_u[k];
     }
     return u_in[k];
 }
 
-// Value at a stored v face. Diffused: wall faces stay zero.
 fn value_v(src: u32, e: u32, i: i32, j: i32) -> f32 {
     let k = v_idx(e, u32(i), u32(j));
     if (src == SRC_HAT) {
-        return v_hat[k];
+        return v_hat[k].x;
     }
     if (src == SRC_DIFFUSED) {
-        if (j == 0 || j == i32(P.ny)) {
-            return 0.0;
-        }
-        return v_in[k] + diffusion_v(e, i, j);
+        return w_v[k];
     }
     return v_in[k];
 }
@@ -216,10 +190,45 @@ fn velocity_in(e: u32, pos: vec2<f32>) -> vec2<f32> {
     );
 }
 
-// Departure point of a trajectory that ends at pos after a step h (midpoint rule, RK2).
-fn trace(e: u32, pos: vec2<f32>, h: f32) -> vec2<f32> {
-    let mid = pos - 0.5 * h * velocity_in(e, pos);
+// Departure point of a trajectory that ends at pos after a step h (midpoint rule, RK2), given
+// the velocity at pos.
+fn trace(e: u32, pos: vec2<f32>, vel: vec2<f32>, h: f32) -> vec2<f32> {
+    let mid = pos - 0.5 * h * vel;
     return pos - h * velocity_in(e, mid);
+}
+
+fn u_face_pos(i: u32, j: u32) -> vec2<f32> {
+    return vec2<f32>(f32(i) * P.dx, (f32(j) + 0.5) * P.dy);
+}
+
+fn v_face_pos(i: u32, j: u32) -> vec2<f32> {
+    return vec2<f32>((f32(i) + 0.5) * P.dx, f32(j) * P.dy);
+}
+
+// Input velocity at u face (i, j): its own u and the mean of the four v faces around it.
+fn velocity_at_u_face(e: u32, i: u32, j: u32) -> vec2<f32> {
+    let a = i32(i);
+    let b = i32(j);
+    let v = fetch_v(SRC_IN, e, a - 1, b) + fetch_v(SRC_IN, e, a, b)
+        + fetch_v(SRC_IN, e, a - 1, b + 1) + fetch_v(SRC_IN, e, a, b + 1);
+    return vec2<f32>(u_in[u_idx(e, i, j)], 0.25 * v);
+}
+
+// Input velocity at v face (i, j): its own v and the mean of the four u faces around it.
+fn velocity_at_v_face(e: u32, i: u32, j: u32) -> vec2<f32> {
+    let a = i32(i);
+    let b = i32(j);
+    let u = fetch_u(SRC_IN, e, a, b - 1) + fetch_u(SRC_IN, e, a + 1, b - 1)
+        + fetch_u(SRC_IN, e, a, b) + fetch_u(SRC_IN, e, a + 1, b);
+    return vec2<f32>(0.25 * u, v_in[v_idx(e, i, j)]);
+}
+
+fn trace_u_face(e: u32, i: u32, j: u32, h: f32) -> vec2<f32> {
+    return trace(e, u_face_pos(i, j), velocity_at_u_face(e, i, j), h);
+}
+
+fn trace_v_face(e: u32, i: u32, j: u32, h: f32) -> vec2<f32> {
+    return trace(e, v_face_pos(i, j), velocity_at_v_face(e, i, j), h);
 }
 
 fn is_finite(x: f32) -> bool {

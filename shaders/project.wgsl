@@ -1,18 +1,33 @@
-// Projection: back from modes to pressure, and the velocity correction.
+// Projection, in two passes.
 //
-//   p(i, j) = sum_k Q[j][k] phat[e][k][i]                       (Pa)
-//   u <- u - dt / rho * (p(i, j) - p(i-1, j)) / dx,  v <- v - dt / rho * (p(i, j) - p(i, j-1)) / dy
-// Inlet and wall faces keep their Dirichlet values; the outlet face uses the ghost
-// p(nx, j) = -p(nx-1, j) (p = 0 on the face).
-// Dispatch: (ceil((nx+1)/64), ny+1, E); thread (i, j, e) owns cell (i, j), u face (i, j) and
-// v face (i, j). Reads phat; writes p and u_out/v_out in place.
+// `pressure_back`: p(i, j) = sum_k Q[j][k] phat[e][k][i] (Pa). Dispatch (ceil(nx/64), E, 1);
+//   thread (i, e) owns column i (modes kept in lane-interleaved workgroup scratch; ny <= 64).
+// `project`: u <- u - dt / rho * (p(i, j) - p(i-1, j)) / dx,  v <- v - dt / rho * (p(i, j) - p(i, j-1)) / dy.
+//   Inlet and wall faces keep their Dirichlet values; the outlet face uses the ghost
+//   p(nx, j) = -p(nx-1, j) (p = 0 on the face). Dispatch (ceil((nx+1)/64), ny+1, E); thread
+//   (i, j, e) owns u face (i, j) and v face (i, j). Writes u_out/v_out in place.
 
-fn p_cell(e: u32, i: u32, j: u32) -> f32 {
-    var acc = 0.0;
-    for (var k = 0u; k < P.ny; k++) {
-        acc += poisson[j * P.ny + k] * phat[(e * P.ny + k) * P.nx + i];
+const LANES: u32 = 64u;
+var<workgroup> modes: array<f32, 4096>; // [k * LANES + lane]
+
+@compute @workgroup_size(64, 1, 1)
+fn pressure_back(@builtin(global_invocation_id) g: vec3<u32>, @builtin(local_invocation_id) l: vec3<u32>) {
+    let i = g.x;
+    let e = g.y;
+    let lane = l.x;
+    if (i >= P.nx || e >= P.n_env) {
+        return;
     }
-    return acc;
+    for (var k = 0u; k < P.ny; k++) {
+        modes[k * LANES + lane] = phat[(e * P.ny + k) * P.nx + i];
+    }
+    for (var j = 0u; j < P.ny; j++) {
+        var acc = 0.0;
+        for (var k = 0u; k < P.ny; k++) {
+            acc += poisson[j * P.ny + k] * modes[k * LANES + lane];
+        }
+        p[c_idx(e, i, j)] = acc;
+    }
 }
 
 @compute @workgroup_size(64, 1, 1)
@@ -24,21 +39,15 @@ fn project(@builtin(global_invocation_id) g: vec3<u32>) {
         return;
     }
     let scale = P.dt / P.rho;
-    var here = 0.0;
-    if (i < P.nx && j < P.ny) {
-        here = p_cell(e, i, j);
-        p[c_idx(e, i, j)] = here;
-    }
     if (j < P.ny && i >= 1u) {
-        let left = p_cell(e, i - 1u, j);
-        var right = here;
-        if (i == P.nx) {
-            right = -left;
+        let left = p[c_idx(e, i - 1u, j)];
+        var right = -left;
+        if (i < P.nx) {
+            right = p[c_idx(e, i, j)];
         }
         u_out[u_idx(e, i, j)] -= scale * (right - left) / P.dx;
     }
     if (i < P.nx && j >= 1u && j < P.ny) {
-        let below = p_cell(e, i, j - 1u);
-        v_out[v_idx(e, i, j)] -= scale * (here - below) / P.dy;
+        v_out[v_idx(e, i, j)] -= scale * (p[c_idx(e, i, j)] - p[c_idx(e, i, j - 1u)]) / P.dy;
     }
 }

@@ -158,11 +158,36 @@ impl G<'_> {
         ]
     }
 
-    fn trace(&self, e: usize, pos: [f32; 2], h: f32) -> [f32; 2] {
-        let v0 = self.velocity(e, pos);
+    fn trace(&self, e: usize, pos: [f32; 2], v0: [f32; 2], h: f32) -> [f32; 2] {
         let mid = [pos[0] - 0.5 * h * v0[0], pos[1] - 0.5 * h * v0[1]];
         let v1 = self.velocity(e, mid);
         [pos[0] - h * v1[0], pos[1] - h * v1[1]]
+    }
+
+    fn velocity_at_u_face(&self, e: usize, i: usize, j: usize) -> [f32; 2] {
+        let (a, b) = (i as i32, j as i32);
+        let v = self.fetch_v(Src::In, e, a - 1, b)
+            + self.fetch_v(Src::In, e, a, b)
+            + self.fetch_v(Src::In, e, a - 1, b + 1)
+            + self.fetch_v(Src::In, e, a, b + 1);
+        [self.u[u_idx(self.p, e, i, j)], 0.25 * v]
+    }
+
+    fn velocity_at_v_face(&self, e: usize, i: usize, j: usize) -> [f32; 2] {
+        let (a, b) = (i as i32, j as i32);
+        let u = self.fetch_u(Src::In, e, a, b - 1)
+            + self.fetch_u(Src::In, e, a + 1, b - 1)
+            + self.fetch_u(Src::In, e, a, b)
+            + self.fetch_u(Src::In, e, a + 1, b);
+        [0.25 * u, self.v[v_idx(self.p, e, i, j)]]
+    }
+
+    fn trace_u_face(&self, e: usize, i: usize, j: usize, h: f32) -> [f32; 2] {
+        self.trace(e, self.u_pos(i, j), self.velocity_at_u_face(e, i, j), h)
+    }
+
+    fn trace_v_face(&self, e: usize, i: usize, j: usize, h: f32) -> [f32; 2] {
+        self.trace(e, self.v_pos(i, j), self.velocity_at_v_face(e, i, j), h)
     }
 
     fn u_pos(&self, i: usize, j: usize) -> [f32; 2] {
@@ -174,19 +199,19 @@ impl G<'_> {
     }
 
     fn sl_u(&self, src: Src, e: usize, i: usize, j: usize, h: f32) -> f32 {
-        let d = self.trace(e, self.u_pos(i, j), h);
+        let d = self.trace_u_face(e, i, j, h);
         self.stencil_u(src, e, d[0], d[1]).bilerp()
     }
 
     fn sl_v(&self, src: Src, e: usize, i: usize, j: usize, h: f32) -> f32 {
-        let d = self.trace(e, self.v_pos(i, j), h);
+        let d = self.trace_v_face(e, i, j, h);
         self.stencil_v(src, e, d[0], d[1]).bilerp()
     }
 
     /// MacCormack correction of u face (i, j), clamped to the extrema of the forward stencil.
     fn maccormack_u(&self, e: usize, i: usize, j: usize) -> f32 {
         let back = self.sl_u(Src::Hat, e, i, j, -self.p.dt);
-        let d = self.trace(e, self.u_pos(i, j), self.p.dt);
+        let d = self.trace_u_face(e, i, j, self.p.dt);
         let st = self.stencil_u(Src::Diffused, e, d[0], d[1]);
         let w = self.value_u(Src::Diffused, e, i as i32, j as i32);
         (self.u_hat[u_idx(self.p, e, i, j)] + 0.5 * (w - back)).clamp(st.min(), st.max())
@@ -194,7 +219,7 @@ impl G<'_> {
 
     fn maccormack_v(&self, e: usize, i: usize, j: usize) -> f32 {
         let back = self.sl_v(Src::Hat, e, i, j, -self.p.dt);
-        let d = self.trace(e, self.v_pos(i, j), self.p.dt);
+        let d = self.trace_v_face(e, i, j, self.p.dt);
         let st = self.stencil_v(Src::Diffused, e, d[0], d[1]);
         let w = self.value_v(Src::Diffused, e, i as i32, j as i32);
         (self.v_hat[v_idx(self.p, e, i, j)] + 0.5 * (w - back)).clamp(st.min(), st.max())

@@ -2,13 +2,15 @@
 //! submission with no read-back in between; after the step one small read-back of the health
 //! of every environment.
 //!
-//! Per substep (4 dispatches with semi-Lagrangian advection, 5 with MacCormack):
-//!   advect [+ correct]  u* = A(u^n) + dt nu lap u^n, boundary values, Brinkman blend
+//! Per substep (6 dispatches with semi-Lagrangian advection, 7 with MacCormack):
+//!   diffuse             w = u^n + dt nu lap u^n
+//!   advect [+ correct]  u* = A(w) along the velocity u^n, boundary values, Brinkman blend
 //!   pressure_rhs        phat = Q^T (rho/dt div u*)          (y-cosine modes per column)
 //!   pressure_solve      (Lx + lambda_k) p_k = phat_k         (Thomas along x per mode: exact)
-//!   project             p = Q p_k;  u = u* - dt/rho grad p
+//!   pressure_back       p = Q p_k                            (per column)
+//!   project             u = u* - dt/rho grad p
 //! Buffers ([E] outermost): u[2] [E][ny][nx+1] and v[2] [E][ny+1][nx] (ping-pong), u_hat/v_hat
-//! (MacCormack), p and modes [E][ny][nx], body [E][ny][nx] vec4 (chi, u_body, v_body, 0),
+//! (MacCormack predictor and clamp extrema, vec4), w_u/w_v (diffused), p and modes [E][ny][nx], body [E][ny][nx] vec4 (chi, u_body, v_body, 0),
 //! inlet [E][S], poisson tables, divstar [E][nx], colstats [E][nx+1] vec4, health [E][2] vec4.
 
 use thiserror::Error;
@@ -119,6 +121,8 @@ struct Buffers {
     colstats: wgpu::Buffer,
     health: wgpu::Buffer,
     health_staging: wgpu::Buffer,
+    w_u: wgpu::Buffer,
+    w_v: wgpu::Buffer,
 }
 
 /// E channel flows advanced together.
@@ -161,7 +165,7 @@ pub fn largest_buffer_per_env(grid: &Grid) -> u64 {
 pub fn bytes_per_env(grid: &Grid, substeps: usize) -> u64 {
     let f = 4u64;
     let vel = (grid.n_u() + grid.n_v()) as u64 * f;
-    3 * vel // u, v ping-pong and u_hat/v_hat
+    8 * vel // u, v ping-pong, w_u/w_v, u_hat/v_hat (vec4)
         + 2 * grid.n_cells() as u64 * f // p, modes
         + grid.n_cells() as u64 * 16 // body
         + substeps as u64 * f
@@ -302,8 +306,8 @@ impl FluidBatch {
                 zeros("v0", n_env * grid.n_v() * f),
                 zeros("v1", n_env * grid.n_v() * f),
             ],
-            u_hat: zeros("u_hat", n_env * grid.n_u() * f),
-            v_hat: zeros("v_hat", n_env * grid.n_v() * f),
+            u_hat: zeros("u_hat", n_env * grid.n_u() * 16),
+            v_hat: zeros("v_hat", n_env * grid.n_v() * 16),
             p: zeros("p", n_env * grid.n_cells() * f),
             modes: zeros("modes", n_env * grid.n_cells() * f),
             body: zeros("body", n_env * grid.n_cells() * 16),
@@ -316,6 +320,8 @@ impl FluidBatch {
             divstar: zeros("divstar", n_env * grid.nx * f),
             colstats: zeros("colstats", n_env * (grid.nx + 1) * 16),
             health: zeros("health", n_env * 32),
+            w_u: zeros("w_u", n_env * grid.n_u() * f),
+            w_v: zeros("w_v", n_env * grid.n_v() * f),
             health_staging: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("health staging"),
                 size: (n_env * 32) as u64,
@@ -331,7 +337,7 @@ impl FluidBatch {
         b: &Buffers,
         g: usize,
     ) -> wgpu::BindGroup {
-        let storage: [(&wgpu::Buffer, FieldBinding); 14] = [
+        let storage: [(&wgpu::Buffer, FieldBinding); 16] = [
             (&b.u[g], FieldBinding::UIn),
             (&b.v[g], FieldBinding::VIn),
             (&b.u[1 - g], FieldBinding::UOut),
@@ -346,6 +352,8 @@ impl FluidBatch {
             (&b.divstar, FieldBinding::DivStar),
             (&b.colstats, FieldBinding::ColStats),
             (&b.health, FieldBinding::Health),
+            (&b.w_u, FieldBinding::WU),
+            (&b.w_v, FieldBinding::WV),
         ];
         let mut entries = vec![
             wgpu::BindGroupEntry {
@@ -421,7 +429,7 @@ impl FluidBatch {
 
     /// Dispatches per substep (advection scheme dependent) and per control step.
     pub fn dispatches_per_substep(&self) -> u32 {
-        Advect::dispatches(self.scheme) + 3
+        Advect::dispatches(self.scheme) + 4
     }
 
     pub fn dispatches_per_control_step(&self) -> u32 {
@@ -497,6 +505,8 @@ impl FluidBatch {
             FieldBinding::DivStar => &b.divstar,
             FieldBinding::ColStats => &b.colstats,
             FieldBinding::Health => &b.health,
+            FieldBinding::WU => &b.w_u,
+            FieldBinding::WV => &b.w_v,
         }
     }
 
@@ -504,8 +514,10 @@ impl FluidBatch {
     fn words_per_env(&self, which: FieldBinding) -> usize {
         let g = &self.grid;
         match which {
-            FieldBinding::UIn | FieldBinding::UOut | FieldBinding::UHat => g.n_u(),
-            FieldBinding::VIn | FieldBinding::VOut | FieldBinding::VHat => g.n_v(),
+            FieldBinding::UIn | FieldBinding::UOut | FieldBinding::WU => g.n_u(),
+            FieldBinding::VIn | FieldBinding::VOut | FieldBinding::WV => g.n_v(),
+            FieldBinding::UHat => 4 * g.n_u(),
+            FieldBinding::VHat => 4 * g.n_v(),
             FieldBinding::Pressure | FieldBinding::Modes => g.n_cells(),
             FieldBinding::Body => 4 * g.n_cells(),
             FieldBinding::Inlet => self.substeps,

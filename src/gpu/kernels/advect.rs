@@ -1,11 +1,13 @@
-//! `shaders/advect.wgsl`: momentum predictor (advection + diffusion + boundary values +
-//! Brinkman). Semi-Lagrangian: one dispatch; MacCormack: predict + correct, two dispatches.
+//! `shaders/advect.wgsl`: momentum predictor (diffusion, then advection + boundary values +
+//! Brinkman). Semi-Lagrangian: diffuse + advect, two dispatches; MacCormack: diffuse + predict
+//! + correct, three.
 //! Grid: (ceil((nx+1)/64), ny+1, E).
 
 use super::{Dims, FieldLayout, Pipeline, fluid_module, groups};
 use crate::config::Advection;
 
 pub struct Advect {
+    diffuse: Pipeline,
     semi_lagrangian: Pipeline,
     predict: Pipeline,
     correct: Pipeline,
@@ -15,6 +17,7 @@ impl Advect {
     pub fn new(device: &wgpu::Device, layout: &FieldLayout) -> Self {
         let module = fluid_module(device, "advect", crate::gpu::shaders::ADVECT);
         Self {
+            diffuse: Pipeline::new(device, layout, &module, "diffuse"),
             semi_lagrangian: Pipeline::new(device, layout, &module, "advect_diffuse"),
             predict: Pipeline::new(device, layout, &module, "advect_predict"),
             correct: Pipeline::new(device, layout, &module, "maccormack_correct"),
@@ -28,8 +31,8 @@ impl Advect {
     /// Dispatches per substep for a scheme.
     pub fn dispatches(scheme: Advection) -> u32 {
         match scheme {
-            Advection::SemiLagrangian => 1,
-            Advection::Maccormack => 2,
+            Advection::SemiLagrangian => 2,
+            Advection::Maccormack => 3,
         }
     }
 
@@ -42,6 +45,7 @@ impl Advect {
         scheme: Advection,
     ) {
         let grid = Self::grid(dims);
+        self.diffuse.dispatch(pass, bind, substep_offset, grid);
         match scheme {
             Advection::SemiLagrangian => {
                 self.semi_lagrangian

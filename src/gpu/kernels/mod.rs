@@ -18,10 +18,10 @@ pub use project::Project;
 use super::{GpuContext, GpuError};
 
 /// Bindings of `common.wgsl`: 0 params (uniform), 1 substep (uniform, dynamic offset),
-/// 2..=15 storage buffers in the order of [`FieldBinding`].
-pub const STORAGE_BINDINGS: u32 = 14;
+/// 2..=17 storage buffers in the order of [`FieldBinding`].
+pub const STORAGE_BINDINGS: u32 = 16;
 
-/// Storage bindings 2..=15 of the field bind group.
+/// Storage bindings 2..=17 of the field bind group.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FieldBinding {
     UIn = 2,
@@ -38,6 +38,8 @@ pub enum FieldBinding {
     DivStar,
     ColStats,
     Health,
+    WU,
+    WV,
 }
 
 /// The bind group layout and pipeline layout shared by every fluid kernel.

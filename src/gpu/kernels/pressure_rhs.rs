@@ -1,5 +1,5 @@
 //! `shaders/pressure_rhs.wgsl`: divergence of the predicted velocity, transformed to the
-//! y-cosine modes. Grid: (ceil(nx/64), ny, E).
+//! y-cosine modes. Grid: (ceil(nx/64), E, 1), one thread per column.
 
 use super::{Dims, FieldLayout, Pipeline, fluid_module, groups};
 
@@ -23,6 +23,6 @@ impl PressureRhs {
         d: Dims,
     ) {
         self.pipeline
-            .dispatch(pass, bind, offset, [groups(d.nx, 64), d.ny, d.n_env]);
+            .dispatch(pass, bind, offset, [groups(d.nx, 64), d.n_env, 1]);
     }
 }

@@ -1,17 +1,19 @@
-//! `shaders/project.wgsl`: pressure from the solved modes and the velocity correction.
-//! Grid: (ceil((nx+1)/64), ny+1, E).
+//! `shaders/project.wgsl`: pressure from the solved modes (one thread per column, grid
+//! (ceil(nx/64), E, 1)), then the velocity correction (grid (ceil((nx+1)/64), ny+1, E)).
 
 use super::{Dims, FieldLayout, Pipeline, fluid_module, groups};
 
 pub struct Project {
-    pipeline: Pipeline,
+    back: Pipeline,
+    correct: Pipeline,
 }
 
 impl Project {
     pub fn new(device: &wgpu::Device, layout: &FieldLayout) -> Self {
         let module = fluid_module(device, "project", crate::gpu::shaders::PROJECT);
         Self {
-            pipeline: Pipeline::new(device, layout, &module, "project"),
+            back: Pipeline::new(device, layout, &module, "pressure_back"),
+            correct: Pipeline::new(device, layout, &module, "project"),
         }
     }
 
@@ -22,7 +24,9 @@ impl Project {
         offset: u32,
         d: Dims,
     ) {
-        self.pipeline.dispatch(
+        self.back
+            .dispatch(pass, bind, offset, [groups(d.nx, 64), d.n_env, 1]);
+        self.correct.dispatch(
             pass,
             bind,
             offset,

@@ -1,0 +1,68 @@
+//! Shared test helpers: one GPU device per test, preferring the software adapter (what CI has),
+//! GPU tests serialised within a test binary, small configurations and deterministic noise.
+#![allow(dead_code)]
+
+use std::sync::{Mutex, MutexGuard};
+
+use fluxswarm_gpu::config::{Config, Resolved};
+use fluxswarm_gpu::gpu::{AdapterChoice, GpuContext};
+
+static GPU_LOCK: Mutex<()> = Mutex::new(());
+
+/// A fresh device on the CPU adapter (any adapter if there is no CPU one), held exclusively.
+pub fn gpu() -> (MutexGuard<'static, ()>, GpuContext) {
+    let guard = GPU_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    let ctx = GpuContext::new(AdapterChoice::Cpu)
+        .or_else(|_| GpuContext::new(AdapterChoice::Auto))
+        .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
+    (guard, ctx)
+}
+
+/// A channel of nx x ny cells of 0.1 mm (the paper's spacing) with extra `--set` overrides.
+pub fn small_config(nx: u32, ny: u32, extra: &[&str]) -> Resolved {
+    let length = nx as f64 * 1e-4;
+    let mut sets = vec![
+        format!("domain.nx={nx}"),
+        format!("domain.ny={ny}"),
+        format!("domain.length_m={length}"),
+        format!("domain.height_m={}", ny as f64 * 1e-4),
+        format!("domain.success_x_m={}", 0.2 * length),
+        format!("domain.failure_x_m={}", 0.8 * length),
+    ];
+    sets.extend(extra.iter().map(|s| s.to_string()));
+    Config::load(None, &sets).unwrap_or_else(|e| panic!("test config: {e}"))
+}
+
+/// Deterministic pseudo-random numbers in [-1, 1) (SplitMix64).
+pub struct Noise(u64);
+
+impl Noise {
+    pub fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+
+    pub fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        (z >> 40) as f32 / (1u64 << 23) as f32 - 1.0
+    }
+
+    pub fn vec(&mut self, n: usize, scale: f32) -> Vec<f32> {
+        (0..n).map(|_| scale * self.next()).collect()
+    }
+}
+
+/// Largest |a - b| and largest |b|.
+pub fn max_diff(a: &[f32], b: &[f32]) -> (f32, f32) {
+    assert_eq!(a.len(), b.len());
+    let d = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max);
+    let m = b.iter().map(|y| y.abs()).fold(0.0, f32::max);
+    (d, m)
+}

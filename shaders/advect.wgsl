@@ -172,6 +172,16 @@ fn advect_predict(@builtin(global_invocation_id) g: vec3<u32>) {
     }
 }
 
+// MacCormack value clamped to the predictor's stencil extrema. A non-finite value is passed
+// through unclamped: min/max ignore NaN, and clamping would hide a blow-up from the health check.
+fn limited(h: vec4<f32>, w: f32, back: f32) -> f32 {
+    let raw = h.x + 0.5 * (w - back);
+    if (!is_finite(raw)) {
+        return raw;
+    }
+    return clamp(raw, h.y, h.z);
+}
+
 @compute @workgroup_size(64, 1, 1)
 fn maccormack_correct(@builtin(global_invocation_id) g: vec3<u32>) {
     let i = g.x;
@@ -186,7 +196,7 @@ fn maccormack_correct(@builtin(global_invocation_id) g: vec3<u32>) {
             let k = u_idx(e, i, j);
             let back = sl_u(SRC_HAT, e, i, j, -P.dt);
             let h = u_hat[k];
-            adv = clamp(h.x + 0.5 * (w_u[k] - back), h.y, h.z);
+            adv = limited(h, w_u[k], back);
         }
         u_out[u_idx(e, i, j)] = finish_u(e, i, j, adv);
     }
@@ -196,7 +206,7 @@ fn maccormack_correct(@builtin(global_invocation_id) g: vec3<u32>) {
             let k = v_idx(e, i, j);
             let back = sl_v(SRC_HAT, e, i, j, -P.dt);
             let h = v_hat[k];
-            adv = clamp(h.x + 0.5 * (w_v[k] - back), h.y, h.z);
+            adv = limited(h, w_v[k], back);
         }
         v_out[v_idx(e, i, j)] = finish_v(e, i, j, adv);
     }

@@ -4,6 +4,12 @@
 /// Velocity magnitude above which an environment counts as diverged (m/s; SPEC section 3).
 pub const DIVERGENCE_SPEED_M_S: f32 = 10.0;
 
+/// Documented bound on the velocity divergence left after the projection, relative to the
+/// grid's velocity-gradient scale: max |div u| <= DIV_TOLERANCE x U_peak / dx. The pressure
+/// solve is exact up to f32 round-off (about 1e-6 of U_peak / dx is measured); the bound keeps
+/// a margin for long runs and obstacles.
+pub const DIV_TOLERANCE: f64 = 1e-4;
+
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EnvHealth {
     /// Smallest and largest volume flux per unit depth over all cross-sections x = i dx (m^2/s).

@@ -1,0 +1,223 @@
+//! The solver against independent truths: the steady Poiseuille parabola and its pressure
+//! gradient, mass conservation through every cross-section under the triphasic inlet, a
+//! divergence-free field after projection (also around a solid body), batch independence and
+//! per-environment NaN reports.
+
+mod common;
+
+use common::small_config;
+use fluxswarm_gpu::config::Config;
+use fluxswarm_gpu::gpu::GpuContext;
+use fluxswarm_gpu::gpu::kernels::FieldBinding;
+use fluxswarm_gpu::sim::health::DIV_TOLERANCE;
+use fluxswarm_gpu::sim::{FluidBatch, Grid};
+
+/// Discrete flux per unit depth of the parabolic inlet with centreline velocity U.
+fn inlet_flux(g: &Grid, centre: f64) -> f64 {
+    (0..g.ny).map(|j| g.inlet_profile(centre, j) * g.dy()).sum()
+}
+
+/// A solid disc (chi = 1 in cells whose centre lies inside), at rest.
+fn disc(g: &Grid, cx: f64, cy: f64, r: f64) -> Vec<[f32; 4]> {
+    (0..g.n_cells())
+        .map(|c| {
+            let x = ((c % g.nx) as f64 + 0.5) * g.dx();
+            let y = ((c / g.nx) as f64 + 0.5) * g.dy();
+            let inside = (x - cx).powi(2) + (y - cy).powi(2) <= r * r;
+            [if inside { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0]
+        })
+        .collect()
+}
+
+fn steady_poiseuille(scheme: &str) {
+    let (_lock, ctx) = common::gpu();
+    let u0 = 0.05;
+    let r = small_config(
+        100,
+        20, // the paper's resolution across the height
+        &[
+            "inlet.points=[[0.0, 0.05], [0.5, 0.05]]",
+            "time.substeps=10",
+            &format!("solver.advection={scheme}"),
+        ],
+    );
+    let mut b = FluidBatch::new(&ctx, &r, 1).unwrap();
+    let g = *b.grid();
+    // Start far from the answer: a plug flow of the same flux (inlet face keeps the parabola).
+    let mean = inlet_flux(&g, u0) / g.height_m;
+    let mut u = vec![mean as f32; g.n_u()];
+    for j in 0..g.ny {
+        u[g.u_idx(0, j)] = g.inlet_profile(u0, j) as f32;
+    }
+    b.write_env(FieldBinding::UIn, 0, &u).unwrap();
+    let mut error_at = |b: &FluidBatch| {
+        let f = b.fields(&ctx, 0).unwrap();
+        let ux = f.ux_cells();
+        let i = g.nx / 2;
+        let (mut num, mut den) = (0.0, 0.0);
+        for j in 0..g.ny {
+            let exact = g.inlet_profile(u0, j);
+            num += (ux[j * g.nx + i] as f64 - exact).powi(2);
+            den += exact * exact;
+        }
+        ((num / den).sqrt(), f)
+    };
+    let (initial_error, _) = error_at(&b);
+    for _ in 0..200 {
+        let h = b.step(&ctx).unwrap();
+        assert!(h[0].is_finite());
+    }
+    let (error, f) = error_at(&b);
+    // Pressure gradient of Poiseuille flow: dp/dx = -8 mu U / H^2.
+    let p_col = |i: usize| (0..g.ny).map(|j| f.p[j * g.nx + i] as f64).sum::<f64>() / g.ny as f64;
+    let grad = (p_col(25) - p_col(75)) / (50.0 * g.dx());
+    let exact_grad = 8.0 * 3e-3 * u0 / (g.height_m * g.height_m);
+    println!(
+        "{scheme}: L2 error at mid-channel {initial_error:.3e} -> {error:.3e}; -dp/dx = {grad:.2} Pa/m (exact {exact_grad:.2})"
+    );
+    assert!(
+        initial_error > 0.1,
+        "the start must be far from the parabola"
+    );
+    assert!(error <= 0.01, "L2 error {error} above 1 %");
+    assert!(
+        (grad / exact_grad - 1.0).abs() <= 0.02,
+        "pressure gradient {grad} vs {exact_grad}"
+    );
+}
+
+#[test]
+fn steady_poiseuille_maccormack() {
+    steady_poiseuille("maccormack");
+}
+
+#[test]
+fn steady_poiseuille_semi_lagrangian() {
+    steady_poiseuille("semi_lagrangian");
+}
+
+/// Runs `steps` control steps and checks flux balance and divergence at every one.
+fn check_conservation(ctx: &GpuContext, b: &mut FluidBatch, steps: usize, label: &str) {
+    let g = *b.grid();
+    let peak = b.waveform().peak_abs();
+    let peak_flux = inlet_flux(&g, peak);
+    let div_limit = DIV_TOLERANCE * peak / g.dx();
+    let (mut worst_flux, mut worst_div) = (0.0f64, 0.0f64);
+    for step in 1..=steps {
+        let h = b.step(ctx).unwrap()[0];
+        assert!(h.is_finite(), "{label}: step {step} not finite");
+        let expected = inlet_flux(&g, b.inlet_u(0));
+        let imbalance = (h.flux_max as f64 - h.flux_min as f64)
+            .max((h.flux_max as f64 - expected).abs())
+            .max((h.flux_min as f64 - expected).abs());
+        worst_flux = worst_flux.max(imbalance / peak_flux);
+        worst_div = worst_div.max(h.max_div as f64);
+        assert!(
+            imbalance <= 0.005 * peak_flux,
+            "{label}: step {step} (U = {:.4} m/s): cross-section fluxes {}..{} vs inlet {expected}, \
+             imbalance {imbalance:e} above 0.5 % of the peak flux {peak_flux:e}",
+            b.inlet_u(0),
+            h.flux_min,
+            h.flux_max
+        );
+        assert!(
+            (h.max_div as f64) <= div_limit,
+            "{label}: step {step}: max |div u| = {} above {div_limit}",
+            h.max_div
+        );
+    }
+    println!(
+        "{label}: worst flux imbalance {worst_flux:.2e} of the peak flux; worst max |div u| {worst_div:.3e} 1/s \
+         (tolerance {div_limit:.3e} = {DIV_TOLERANCE:e} U_peak/dx)"
+    );
+}
+
+#[test]
+fn triphasic_inlet_conserves_mass_through_every_cross_section() {
+    let (_lock, ctx) = common::gpu();
+    // The paper's grid and waveform: 0.3 s covers the systolic ramps, the plateau, the
+    // deceleration, the reversal and the return to forward flow.
+    let r = Config::load(None, &[]).unwrap();
+    let mut b = FluidBatch::new(&ctx, &r, 1).unwrap();
+    check_conservation(&ctx, &mut b, 60, "paper grid");
+}
+
+#[test]
+fn divergence_free_and_conservative_around_a_solid_body() {
+    let (_lock, ctx) = common::gpu();
+    let r = small_config(200, 20, &[]);
+    let mut b = FluidBatch::new(&ctx, &r, 1).unwrap();
+    let g = *b.grid();
+    b.set_body(0, &disc(&g, 0.01, 0.001, 250e-6)).unwrap();
+    check_conservation(&ctx, &mut b, 36, "disc in a 20 mm channel");
+    // The body is felt: the flow inside it is much slower than the flow beside it.
+    let f = b.fields(&ctx, 0).unwrap();
+    let ux = f.ux_cells();
+    let at = |x: f64, y: f64| ux[(y / g.dy()) as usize * g.nx + (x / g.dx()) as usize].abs();
+    assert!(at(0.01, 0.001) < 0.2 * at(0.01, 0.0004).max(at(0.01, 0.0016)));
+}
+
+/// Sets up environment `e` of a batch as scenario `s` (0, 1, 2): different phases and bodies.
+fn scenario(b: &mut FluidBatch, e: usize, s: usize) {
+    let g = *b.grid();
+    b.reset_env_with_phase(e, [0.0, 0.3, 0.02][s]).unwrap();
+    if s == 2 {
+        b.set_body(e, &disc(&g, 0.004, 0.0007, 250e-6)).unwrap();
+    }
+}
+
+#[test]
+fn environments_are_independent_and_nan_is_reported_per_environment() {
+    let (_lock, ctx) = common::gpu();
+    let r = small_config(80, 12, &[]);
+    let steps = 8;
+    let nan_step = 3;
+    let mut batch = FluidBatch::new(&ctx, &r, 3).unwrap();
+    for s in 0..3 {
+        scenario(&mut batch, s, s);
+    }
+    let mut health = Vec::new();
+    for step in 1..=steps {
+        if step == nan_step + 1 {
+            // Poison one face of environment 1 after step 3.
+            let mut u = batch.read_env(&ctx, FieldBinding::UIn, 1).unwrap();
+            u[batch.grid().u_idx(40, 6)] = f32::NAN;
+            batch.write_env(FieldBinding::UIn, 1, &u).unwrap();
+        }
+        health.push(batch.step(&ctx).unwrap());
+    }
+    for (k, h) in health.iter().enumerate() {
+        let step = k + 1;
+        assert!(
+            h[0].is_finite() && h[2].is_finite(),
+            "step {step}: a healthy environment reported bad"
+        );
+        assert_eq!(
+            h[1].diverged(),
+            step > nan_step,
+            "step {step}: environment 1 report"
+        );
+    }
+    for s in [0, 2] {
+        let mut alone = FluidBatch::new(&ctx, &r, 1).unwrap();
+        scenario(&mut alone, 0, s);
+        for _ in 0..steps {
+            alone.step(&ctx).unwrap();
+        }
+        let a = alone.fields(&ctx, 0).unwrap();
+        let b = batch.fields(&ctx, s).unwrap();
+        assert!(a.u_faces.iter().all(|x| x.is_finite()));
+        assert_eq!(
+            a.u_faces, b.u_faces,
+            "environment {s}: u differs from the same run alone"
+        );
+        assert_eq!(
+            a.v_faces, b.v_faces,
+            "environment {s}: v differs from the same run alone"
+        );
+        assert_eq!(
+            a.p, b.p,
+            "environment {s}: p differs from the same run alone"
+        );
+    }
+}

@@ -11,6 +11,7 @@ use fluxswarm_gpu::sim::FluidBatch;
 fn run(
     ctx: &GpuContext,
     scheme: &str,
+    trace: &str,
     substeps: u32,
     seconds: f64,
 ) -> anyhow::Result<(Vec<f32>, f64, f32)> {
@@ -18,6 +19,7 @@ fn run(
         None,
         &[
             format!("solver.advection={scheme}"),
+            format!("solver.backtrace={trace}"),
             format!("time.substeps={substeps}"),
         ],
     )?;
@@ -52,7 +54,7 @@ fn main() -> anyhow::Result<()> {
         .unwrap_or(0.12);
     let ctx = GpuContext::new(AdapterChoice::Auto)?;
     println!("{}", ctx.banner());
-    let (reference, _, _) = run(&ctx, "maccormack", 80, seconds)?;
+    let (reference, _, _) = run(&ctx, "maccormack", "rk2", 80, seconds)?;
     let nx = 1000;
     let region = |f: &[f32]| -> Vec<f32> {
         (0..20)
@@ -62,13 +64,16 @@ fn main() -> anyhow::Result<()> {
     };
     let rr = region(&reference);
     let norm: f32 = rr.iter().map(|x| x * x).sum::<f32>().sqrt();
-    for (scheme, substeps) in [
-        ("semi_lagrangian", 20),
-        ("maccormack", 20),
-        ("semi_lagrangian", 40),
-        ("maccormack", 40),
+    for (scheme, trace, substeps) in [
+        ("semi_lagrangian", "euler", 20),
+        ("semi_lagrangian", "rk2", 20),
+        ("maccormack", "euler", 20),
+        ("maccormack", "rk2", 20),
+        ("semi_lagrangian", "rk2", 40),
+        ("maccormack", "euler", 40),
+        ("maccormack", "rk2", 40),
     ] {
-        let (f, wall, max_div) = run(&ctx, scheme, substeps, seconds)?;
+        let (f, wall, max_div) = run(&ctx, scheme, trace, substeps, seconds)?;
         let ff = region(&f);
         let err: f32 = ff
             .iter()
@@ -78,7 +83,7 @@ fn main() -> anyhow::Result<()> {
             .sqrt()
             / norm;
         println!(
-            "{scheme:16} substeps {substeps:3}: rel L2 error of u_x near the disc {err:.3e}, wall {wall:.1} s, max |div u| {max_div:.3e} 1/s"
+            "{scheme:16} {trace:5} substeps {substeps:3}: rel L2 error of u_x near the disc {err:.3e}, wall {wall:.1} s, max |div u| {max_div:.3e} 1/s"
         );
     }
     Ok(())

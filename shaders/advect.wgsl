@@ -71,17 +71,27 @@ fn diffuse(@builtin(global_invocation_id) g: vec3<u32>) {
 // Brinkman blend on a face between cells a and b: (1 - chi_f) w + (chi_a w_a + chi_b w_b) / 2
 // with chi_f = (chi_a + chi_b) / 2 (component 1: body u, component 2: body v).
 fn brinkman_u(e: u32, i: u32, j: u32, w: f32) -> f32 {
-    let a = body[c_idx(e, max(i, 1u) - 1u, j)];
-    let b = body[c_idx(e, min(i, P.nx - 1u), j)];
-    let chi = 0.5 * (a.x + b.x);
-    return (1.0 - chi) * w + 0.5 * (a.x * a.y + b.x * b.y);
+    let ka = c_idx(e, max(i, 1u) - 1u, j);
+    let kb = c_idx(e, min(i, P.nx - 1u), j);
+    let chi_a = body[ka].x;
+    let chi_b = body[kb].x;
+    if (chi_a == 0.0 && chi_b == 0.0) {
+        return w; // fluid face: the body velocities are not read
+    }
+    let chi = 0.5 * (chi_a + chi_b);
+    return (1.0 - chi) * w + 0.5 * (chi_a * body[ka].y + chi_b * body[kb].y);
 }
 
 fn brinkman_v(e: u32, i: u32, j: u32, w: f32) -> f32 {
-    let a = body[c_idx(e, i, j - 1u)];
-    let b = body[c_idx(e, i, j)];
-    let chi = 0.5 * (a.x + b.x);
-    return (1.0 - chi) * w + 0.5 * (a.x * a.z + b.x * b.z);
+    let ka = c_idx(e, i, j - 1u);
+    let kb = c_idx(e, i, j);
+    let chi_a = body[ka].x;
+    let chi_b = body[kb].x;
+    if (chi_a == 0.0 && chi_b == 0.0) {
+        return w;
+    }
+    let chi = 0.5 * (chi_a + chi_b);
+    return (1.0 - chi) * w + 0.5 * (chi_a * body[ka].z + chi_b * body[kb].z);
 }
 
 fn sl_u(src: u32, e: u32, i: u32, j: u32, h: f32) -> f32 {

@@ -25,8 +25,14 @@ struct Params {
     nu: f32,
     rho: f32,
     height: f32,
-    pad0: f32,
+    // 1: second-order (midpoint, RK2) backtrace; 0: first-order (Euler) backtrace.
+    rk2: u32,
     pad1: f32,
+    // 1 / dx, 1 / dy (1/m).
+    inv_dx: f32,
+    inv_dy: f32,
+    pad2: f32,
+    pad3: f32,
 }
 
 struct Substep {
@@ -150,8 +156,8 @@ fn stencil_max(st: Stencil) -> f32 {
 
 // Stencil of u around the point (x, y) in metres; the point is clamped into the channel.
 fn stencil_u(src: u32, e: u32, x: f32, y: f32) -> Stencil {
-    let fx = clamp(x / P.dx, 0.0, f32(P.nx));
-    let fy = clamp(y / P.dy, 0.0, f32(P.ny)) - 0.5;
+    let fx = clamp(x * P.inv_dx, 0.0, f32(P.nx));
+    let fy = clamp(y * P.inv_dy, 0.0, f32(P.ny)) - 0.5;
     let i0 = min(i32(floor(fx)), i32(P.nx) - 1);
     let j0 = i32(floor(fy));
     var st: Stencil;
@@ -167,8 +173,8 @@ fn stencil_u(src: u32, e: u32, x: f32, y: f32) -> Stencil {
 
 // Stencil of v around the point (x, y) in metres; the point is clamped into the channel.
 fn stencil_v(src: u32, e: u32, x: f32, y: f32) -> Stencil {
-    let fx = clamp(x / P.dx, 0.0, f32(P.nx)) - 0.5;
-    let fy = clamp(y / P.dy, 0.0, f32(P.ny));
+    let fx = clamp(x * P.inv_dx, 0.0, f32(P.nx)) - 0.5;
+    let fy = clamp(y * P.inv_dy, 0.0, f32(P.ny));
     let i0 = i32(floor(fx));
     let j0 = min(i32(floor(fy)), i32(P.ny) - 1);
     var st: Stencil;
@@ -190,9 +196,12 @@ fn velocity_in(e: u32, pos: vec2<f32>) -> vec2<f32> {
     );
 }
 
-// Departure point of a trajectory that ends at pos after a step h (midpoint rule, RK2), given
-// the velocity at pos.
+// Departure point of a trajectory that ends at pos after a step h, given the velocity at pos:
+// midpoint rule (RK2) or Euler.
 fn trace(e: u32, pos: vec2<f32>, vel: vec2<f32>, h: f32) -> vec2<f32> {
+    if (P.rk2 == 0u) {
+        return pos - h * vel;
+    }
     let mid = pos - 0.5 * h * vel;
     return pos - h * velocity_in(e, mid);
 }

@@ -2,6 +2,8 @@
 //
 // `pressure_back`: p(i, j) = sum_k Q[j][k] phat[e][k][i] (Pa). Dispatch (ceil(nx/64), E, 1);
 //   thread (i, e) owns column i (modes kept in lane-interleaved workgroup scratch; ny <= 64).
+//   Mirror symmetry halves the work: with E_j, O_j the sums over even and odd k,
+//   p(j) = E_j + O_j and p(ny-1-j) = E_j - O_j; the middle row of an odd ny is E_j alone.
 // `project`: u <- u - dt / rho * (p(i, j) - p(i-1, j)) / dx,  v <- v - dt / rho * (p(i, j) - p(i, j-1)) / dy.
 //   Inlet and wall faces keep their Dirichlet values; the outlet face uses the ghost
 //   p(nx, j) = -p(nx-1, j) (p = 0 on the face). Dispatch (ceil((nx+1)/64), ny+1, E); thread
@@ -21,12 +23,22 @@ fn pressure_back(@builtin(global_invocation_id) g: vec3<u32>, @builtin(local_inv
     for (var k = 0u; k < P.ny; k++) {
         modes[k * LANES + lane] = phat[(e * P.ny + k) * P.nx + i];
     }
-    for (var j = 0u; j < P.ny; j++) {
-        var acc = 0.0;
-        for (var k = 0u; k < P.ny; k++) {
-            acc += poisson[j * P.ny + k] * modes[k * LANES + lane];
+    for (var j = 0u; j < (P.ny + 1u) / 2u; j++) {
+        var even = 0.0;
+        for (var k = 0u; k < P.ny; k += 2u) {
+            even += poisson[j * P.ny + k] * modes[k * LANES + lane];
         }
-        p[c_idx(e, i, j)] = acc;
+        var odd = 0.0;
+        for (var k = 1u; k < P.ny; k += 2u) {
+            odd += poisson[j * P.ny + k] * modes[k * LANES + lane];
+        }
+        let mirror = P.ny - 1u - j;
+        if (mirror == j) {
+            p[c_idx(e, i, j)] = even;
+        } else {
+            p[c_idx(e, i, j)] = even + odd;
+            p[c_idx(e, i, mirror)] = even - odd;
+        }
     }
 }
 

@@ -105,10 +105,21 @@ pub enum Advection {
     Maccormack,
 }
 
+/// Order of the semi-Lagrangian backtrace (departure point of a trajectory).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Backtrace {
+    /// One Euler step with the velocity at the arrival point (the paper's scheme).
+    Euler,
+    /// Midpoint rule: a second velocity sample half-way back.
+    Rk2,
+}
+
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Solver {
     pub advection: Advection,
+    pub backtrace: Backtrace,
 }
 
 /// A validated configuration with its waveform resolved.

@@ -15,7 +15,18 @@ const NX: u32 = 37;
 const NY: u32 = 11;
 
 fn batch(ctx: &GpuContext, scheme: &str) -> FluidBatch {
-    let r = small_config(NX, NY, &[&format!("solver.advection={scheme}")]);
+    batch_with(ctx, scheme, "euler")
+}
+
+fn batch_with(ctx: &GpuContext, scheme: &str, trace: &str) -> FluidBatch {
+    let r = small_config(
+        NX,
+        NY,
+        &[
+            &format!("solver.advection={scheme}"),
+            &format!("solver.backtrace={trace}"),
+        ],
+    );
     FluidBatch::new(ctx, &r, E).unwrap()
 }
 
@@ -59,9 +70,10 @@ fn assert_close(name: &str, gpu: &[f32], cpu: &[f32], rel: f32) {
     );
 }
 
-fn advect_matches(scheme: &str, kind: Advection) {
+fn advect_matches(scheme: &str, kind: Advection, trace: &str) {
     let (_lock, ctx) = common::gpu();
-    let mut b = batch(&ctx, scheme);
+    let mut b = batch_with(&ctx, scheme, trace);
+    assert_eq!(b.params().rk2, (trace == "rk2") as u32);
     let (u, v, body, inlet) = randomise(&mut b, 7);
     let s = 3; // a substep other than 0: reads its own inlet value
     b.run_stages(&ctx, &[Stage::Advect], s, 1).unwrap();
@@ -83,13 +95,23 @@ fn advect_matches(scheme: &str, kind: Advection) {
 }
 
 #[test]
-fn advect_semi_lagrangian_matches_cpu() {
-    advect_matches("semi_lagrangian", Advection::SemiLagrangian);
+fn advect_semi_lagrangian_euler_matches_cpu() {
+    advect_matches("semi_lagrangian", Advection::SemiLagrangian, "euler");
 }
 
 #[test]
-fn advect_maccormack_matches_cpu() {
-    advect_matches("maccormack", Advection::Maccormack);
+fn advect_semi_lagrangian_rk2_matches_cpu() {
+    advect_matches("semi_lagrangian", Advection::SemiLagrangian, "rk2");
+}
+
+#[test]
+fn advect_maccormack_euler_matches_cpu() {
+    advect_matches("maccormack", Advection::Maccormack, "euler");
+}
+
+#[test]
+fn advect_maccormack_rk2_matches_cpu() {
+    advect_matches("maccormack", Advection::Maccormack, "rk2");
 }
 
 #[test]

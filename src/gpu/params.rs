@@ -20,10 +20,16 @@ pub struct GpuParams {
     pub rho: f32,
     /// Channel height H (m).
     pub height: f32,
-    pub pad0: f32,
+    /// 1: midpoint (RK2) backtrace, 0: Euler backtrace.
+    pub rk2: u32,
     pub pad1: f32,
+    /// 1 / dx, 1 / dy (1/m), so samplers multiply instead of divide.
+    pub inv_dx: f32,
+    pub inv_dy: f32,
+    pub pad2: f32,
+    pub pad3: f32,
 }
-const _: () = assert!(std::mem::size_of::<GpuParams>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuParams>() == 64);
 
 /// Index of the substep being run (WGSL `Substep`), one per dynamic-offset slot.
 #[repr(C)]

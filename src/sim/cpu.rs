@@ -120,8 +120,8 @@ impl G<'_> {
     }
 
     fn stencil_u(&self, src: Src, e: usize, x: f32, y: f32) -> Stencil {
-        let fx = (x / self.p.dx).clamp(0.0, self.p.nx as f32);
-        let fy = (y / self.p.dy).clamp(0.0, self.p.ny as f32) - 0.5;
+        let fx = (x * self.p.inv_dx).clamp(0.0, self.p.nx as f32);
+        let fy = (y * self.p.inv_dy).clamp(0.0, self.p.ny as f32) - 0.5;
         let i0 = (fx.floor() as i32).min(self.nx() - 1);
         let j0 = fy.floor() as i32;
         Stencil {
@@ -136,8 +136,8 @@ impl G<'_> {
     }
 
     fn stencil_v(&self, src: Src, e: usize, x: f32, y: f32) -> Stencil {
-        let fx = (x / self.p.dx).clamp(0.0, self.p.nx as f32) - 0.5;
-        let fy = (y / self.p.dy).clamp(0.0, self.p.ny as f32);
+        let fx = (x * self.p.inv_dx).clamp(0.0, self.p.nx as f32) - 0.5;
+        let fy = (y * self.p.inv_dy).clamp(0.0, self.p.ny as f32);
         let i0 = fx.floor() as i32;
         let j0 = (fy.floor() as i32).min(self.ny() - 1);
         Stencil {
@@ -159,6 +159,9 @@ impl G<'_> {
     }
 
     fn trace(&self, e: usize, pos: [f32; 2], v0: [f32; 2], h: f32) -> [f32; 2] {
+        if self.p.rk2 == 0 {
+            return [pos[0] - h * v0[0], pos[1] - h * v0[1]];
+        }
         let mid = [pos[0] - 0.5 * h * v0[0], pos[1] - 0.5 * h * v0[1]];
         let v1 = self.velocity(e, mid);
         [pos[0] - h * v1[0], pos[1] - h * v1[1]]
@@ -314,8 +317,7 @@ pub fn advect(p: &GpuParams, scheme: Advection, inp: &AdvectInputs) -> (Vec<f32>
                     };
                     let a = inp.body[c_idx(p, e, i.max(1) - 1, j)];
                     let b = inp.body[c_idx(p, e, i.min(nx - 1), j)];
-                    let chi = 0.5 * (a[0] + b[0]);
-                    (1.0 - chi) * w + 0.5 * (a[0] * a[1] + b[0] * b[1])
+                    brinkman(w, a[0], a[1], b[0], b[1])
                 };
             }
         }
@@ -330,13 +332,21 @@ pub fn advect(p: &GpuParams, scheme: Advection, inp: &AdvectInputs) -> (Vec<f32>
                     };
                     let a = inp.body[c_idx(p, e, i, j - 1)];
                     let b = inp.body[c_idx(p, e, i, j)];
-                    let chi = 0.5 * (a[0] + b[0]);
-                    (1.0 - chi) * w + 0.5 * (a[0] * a[2] + b[0] * b[2])
+                    brinkman(w, a[0], a[2], b[0], b[2])
                 };
             }
         }
     }
     (u_out, v_out)
+}
+
+/// Brinkman blend of a face between cells a and b (solid fractions chi, body velocities w).
+fn brinkman(w: f32, chi_a: f32, w_a: f32, chi_b: f32, w_b: f32) -> f32 {
+    if chi_a == 0.0 && chi_b == 0.0 {
+        return w;
+    }
+    let chi = 0.5 * (chi_a + chi_b);
+    (1.0 - chi) * w + 0.5 * (chi_a * w_a + chi_b * w_b)
 }
 
 /// Twin of `pressure_rhs.wgsl`: returns (modes [E][ny][nx], divstar [E][nx]).
@@ -345,19 +355,35 @@ pub fn pressure_rhs(p: &GpuParams, poisson: &[f32], u: &[f32], v: &[f32]) -> (Ve
     let mut modes = vec![0.0; ne * nx * ny];
     let mut divstar = vec![0.0; ne * nx];
     for e in 0..ne {
-        for k in 0..ny {
-            for i in 0..nx {
-                let (mut acc, mut dmax) = (0.0f32, 0.0f32);
-                for j in 0..ny {
-                    let div = (u[u_idx(p, e, i + 1, j)] - u[u_idx(p, e, i, j)]) / p.dx
-                        + (v[v_idx(p, e, i, j + 1)] - v[v_idx(p, e, i, j)]) / p.dy;
-                    acc += poisson[j * ny + k] * div;
-                    dmax = dmax.max(div.abs());
+        for i in 0..nx {
+            let mut column: Vec<f32> = (0..ny)
+                .map(|j| {
+                    (u[u_idx(p, e, i + 1, j)] - u[u_idx(p, e, i, j)]) / p.dx
+                        + (v[v_idx(p, e, i, j + 1)] - v[v_idx(p, e, i, j)]) / p.dy
+                })
+                .collect();
+            divstar[e * nx + i] = column.iter().fold(0.0f32, |m, d| m.max(d.abs()));
+            let half = ny / 2;
+            for j in 0..half {
+                let (lo, hi) = (column[j], column[ny - 1 - j]);
+                column[j] = lo + hi;
+                column[ny - 1 - j] = lo - hi;
+            }
+            for k in 0..ny {
+                let mut acc = 0.0f32;
+                if k % 2 == 0 {
+                    for j in 0..half {
+                        acc += poisson[j * ny + k] * column[j];
+                    }
+                    if ny % 2 == 1 {
+                        acc += poisson[half * ny + k] * column[half];
+                    }
+                } else {
+                    for j in 0..half {
+                        acc += poisson[j * ny + k] * column[ny - 1 - j];
+                    }
                 }
-                modes[(e * ny + k) * nx + i] = acc * p.rho / p.dt;
-                if k == 0 {
-                    divstar[e * nx + i] = dmax;
-                }
+                modes[(e * ny + k) * nx + i] = acc * (p.rho / p.dt);
             }
         }
     }
@@ -398,31 +424,39 @@ pub fn project(
     v: &mut [f32],
 ) -> Vec<f32> {
     let (nx, ny, ne) = (p.nx as usize, p.ny as usize, p.n_env as usize);
-    let p_cell = |e: usize, i: usize, j: usize| {
-        let mut acc = 0.0f32;
-        for k in 0..ny {
-            acc += poisson[j * ny + k] * modes[(e * ny + k) * nx + i];
-        }
-        acc
-    };
     let scale = p.dt / p.rho;
     let mut pres = vec![0.0; ne * nx * ny];
     for e in 0..ne {
+        // pressure_back: even/odd mode sums give a row and its mirror.
+        for i in 0..nx {
+            let mode = |k: usize| modes[(e * ny + k) * nx + i];
+            for j in 0..ny.div_ceil(2) {
+                let even: f32 = (0..ny)
+                    .step_by(2)
+                    .fold(0.0, |a, k| a + poisson[j * ny + k] * mode(k));
+                let odd: f32 = (1..ny)
+                    .step_by(2)
+                    .fold(0.0, |a, k| a + poisson[j * ny + k] * mode(k));
+                let mirror = ny - 1 - j;
+                if mirror == j {
+                    pres[c_idx(p, e, i, j)] = even;
+                } else {
+                    pres[c_idx(p, e, i, j)] = even + odd;
+                    pres[c_idx(p, e, i, mirror)] = even - odd;
+                }
+            }
+        }
+        // project: the velocity correction.
+        let at = |i: usize, j: usize| pres[c_idx(p, e, i, j)];
         for j in 0..=ny {
             for i in 0..=nx {
-                let mut here = 0.0;
-                if i < nx && j < ny {
-                    here = p_cell(e, i, j);
-                    pres[c_idx(p, e, i, j)] = here;
-                }
                 if j < ny && i >= 1 {
-                    let left = p_cell(e, i - 1, j);
-                    let right = if i == nx { -left } else { here };
+                    let left = at(i - 1, j);
+                    let right = if i == nx { -left } else { at(i, j) };
                     u[u_idx(p, e, i, j)] -= scale * (right - left) / p.dx;
                 }
                 if i < nx && j >= 1 && j < ny {
-                    let below = p_cell(e, i, j - 1);
-                    v[v_idx(p, e, i, j)] -= scale * (here - below) / p.dy;
+                    v[v_idx(p, e, i, j)] -= scale * (at(i, j) - at(i, j - 1)) / p.dy;
                 }
             }
         }

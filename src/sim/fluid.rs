@@ -17,7 +17,7 @@ use thiserror::Error;
 use wgpu::util::DeviceExt;
 
 use super::{EnvHealth, Grid, poisson::PoissonTables};
-use crate::config::{Advection, Resolved};
+use crate::config::{Advection, Backtrace, Resolved};
 use crate::gpu::kernels::{
     Advect, Diagnostics, Dims, FieldBinding, FieldLayout, PressureRhs, PressureSolve, Project,
     map_and_read, read_buffer,
@@ -213,8 +213,12 @@ impl FluidBatch {
             nu: config.kinematic_viscosity() as f32,
             rho: config.fluid.density_kg_m3 as f32,
             height: grid.height_m as f32,
-            pad0: 0.0,
+            rk2: (config.solver.backtrace == Backtrace::Rk2) as u32,
             pad1: 0.0,
+            inv_dx: (1.0 / grid.dx()) as f32,
+            inv_dy: (1.0 / grid.dy()) as f32,
+            pad2: 0.0,
+            pad3: 0.0,
         };
         let device = &ctx.device;
         let layout = FieldLayout::new(device);

@@ -1,0 +1,169 @@
+//! The binary as a user drives it: `simulate` writes SPEC section 7's files exactly, refuses an
+//! unwritable output directory before simulating, `bench` writes bench.csv, `info` reports the
+//! adapter and the driver self-check, bad config keys fail with the key named.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn bin(args: &[&str]) -> Output {
+    let _lock = common::gpu().0; // one GPU user at a time
+    Command::new(env!("CARGO_BIN_EXE_fluxswarm-gpu"))
+        .args(args)
+        .env("NODEVICE_SELECT", "1")
+        .env("RUST_LOG", "info")
+        .output()
+        .expect("running fluxswarm-gpu")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// A 10 mm channel at the paper's resolution.
+const SMALL: &[&str] = &[
+    "--set",
+    "domain.nx=100",
+    "--set",
+    "domain.length_m=0.01",
+    "--set",
+    "domain.success_x_m=0.002",
+    "--set",
+    "domain.failure_x_m=0.008",
+];
+
+#[test]
+fn simulate_writes_frames_fields_and_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let mut args = vec![
+        "simulate",
+        "--seconds",
+        "0.02",
+        "--frames-every",
+        "2",
+        "--fields-every",
+        "2",
+        "--out",
+    ];
+    let out_s = out.to_str().unwrap();
+    args.push(out_s);
+    args.extend_from_slice(SMALL);
+    let o = bin(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    let t = text(&o);
+    assert!(t.contains("adapter: "), "{t}");
+    assert!(t.contains(out_s), "prints the directory it wrote: {t}");
+    for step in [0, 2, 4] {
+        let png = out.join(format!("frames/env0_s{step:06}.png"));
+        let img = image::open(&png).unwrap_or_else(|e| panic!("{}: {e}", png.display()));
+        assert!(img.width() > 600 && img.height() > 150);
+        for name in ["ux", "uy", "p"] {
+            let path = out.join(format!("fields/{name}_{step:06}.npy"));
+            let bytes = std::fs::read(&path).unwrap();
+            let npy = npyz::NpyFile::new(&bytes[..]).unwrap();
+            assert_eq!(npy.shape(), &[20, 100], "{}", path.display());
+            assert_eq!(npy.dtype().descr(), "'<f4'");
+        }
+    }
+    assert!(!out.join("frames/env0_s000001.png").exists());
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let lines: Vec<&str> = summary.lines().collect();
+    assert_eq!(
+        lines[0],
+        "step,t_s,inlet_u_m_s,max_div_per_s,flux_min_m2_s,flux_max_m2_s,pressure_iters,residual"
+    );
+    assert_eq!(lines.len(), 1 + 5, "steps 0..=4");
+    let row: Vec<f64> = lines[4].split(',').map(|c| c.parse().unwrap()).collect();
+    assert_eq!(row[0], 3.0);
+    assert!((row[1] - 0.015).abs() < 1e-9);
+    // Inlet centreline velocity at t = 15 ms on the systolic ramp: 8 + (400 - 8) * 15 / 30 mm/s.
+    assert!((row[2] - 0.204).abs() < 1e-6, "{}", lines[4]);
+    assert!(Path::new(&out.join("config.toml")).exists());
+}
+
+#[test]
+fn simulate_refuses_an_unwritable_output_directory_before_simulating() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "x").unwrap();
+    let out = file.join("run");
+    let o = bin(&["simulate", "--out", out.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let t = text(&o);
+    assert!(t.contains("is not writable") && t.contains("--out"), "{t}");
+    assert!(
+        !t.contains("simulating"),
+        "must fail before simulating: {t}"
+    );
+}
+
+#[test]
+fn bad_config_key_fails_with_the_key_named() {
+    let o = bin(&["simulate", "--set", "time.substeps=10"]);
+    assert!(!o.status.success());
+    let t = text(&o);
+    assert!(
+        t.contains("error: config key `time.substeps` = 10") && t.contains("CFL"),
+        "{t}"
+    );
+    assert!(!t.contains("adapter:"), "rejected before any GPU work: {t}");
+}
+
+#[test]
+fn bench_writes_its_table_and_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bench");
+    let mut args = vec![
+        "bench",
+        "--envs",
+        "1,3",
+        "--seconds",
+        "0.05",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(SMALL);
+    let o = bin(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let rows: Vec<&str> = stdout
+        .lines()
+        .filter(|l| l.trim_start().starts_with(|c: char| c.is_ascii_digit()))
+        .collect();
+    assert_eq!(rows.len(), 2, "{stdout}");
+    assert!(rows[0].trim_start().starts_with("1 ") && rows[1].trim_start().starts_with("3 "));
+    let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(
+        lines[0],
+        "envs,env_steps_per_s,cell_updates_per_s,dispatches_per_substep,pressure_iters_per_substep,fluid_s,pressure_s,swarm_s,readback_s,adapter"
+    );
+    assert_eq!(lines.len(), 3);
+    let cols: Vec<&str> = lines[2].split(',').collect();
+    assert_eq!(cols[0], "3");
+    assert!(cols[1].parse::<f64>().unwrap() > 0.0);
+    assert_eq!(cols[3], "7", "MacCormack substep: 7 dispatches");
+    assert_eq!(cols[4], "1");
+}
+
+#[test]
+fn info_reports_adapter_limits_and_self_check() {
+    let o = bin(&["info"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let t = text(&o);
+    for part in [
+        "adapters found",
+        "chosen",
+        "max_storage_buffer_binding_size",
+        "driver self-check",
+        "largest batch",
+    ] {
+        assert!(t.contains(part), "missing {part}: {t}");
+    }
+}

@@ -50,7 +50,7 @@ fn steady_poiseuille(scheme: &str) {
         u[g.u_idx(0, j)] = g.inlet_profile(u0, j) as f32;
     }
     b.write_env(FieldBinding::UIn, 0, &u).unwrap();
-    let mut error_at = |b: &FluidBatch| {
+    let error_at = |b: &FluidBatch| {
         let f = b.fields(&ctx, 0).unwrap();
         let ux = f.ux_cells();
         let i = g.nx / 2;

@@ -186,8 +186,11 @@ impl<'a> Writer<'a> {
             },
             h.residual()
         )?;
-        let frame_due = self.args.frames_every > 0 && step % self.args.frames_every == 0;
-        let fields_due = self.args.fields_every.is_some_and(|k| step % k == 0);
+        let frame_due = self.args.frames_every > 0 && step.is_multiple_of(self.args.frames_every);
+        let fields_due = self
+            .args
+            .fields_every
+            .is_some_and(|k| step.is_multiple_of(k));
         if !frame_due && !fields_due {
             return Ok(());
         }

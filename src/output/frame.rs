@@ -1,6 +1,9 @@
 //! Frame of u_x over the analysis region: a perceptual colour map (viridis) of the
 //! cell-centred field with a labelled colour bar in mm/s, the time and inlet velocity printed
 //! on the image, x ticks in mm, and the height exaggerated so the profile is visible.
+//! Colours follow a signed square root of the velocity, s(u) = sign(u) sqrt(|u| / u_ref), over
+//! a fixed range, so that the 400 mm/s systole and the 10 mm/s diastole are both readable and
+//! frames of one run compare; the colour bar's ticks carry the velocities themselves.
 
 use std::path::Path;
 
@@ -50,10 +53,9 @@ pub fn render(spec: &FrameSpec) -> RgbImage {
     let exaggeration = (height as f64 / spec.height_m) / (width as f64 / shown_len);
 
     let mut img = RgbImage::from_pixel(LEFT + width + RIGHT, TOP + height + BOTTOM, WHITE);
-    let range = (spec.v_max - spec.v_min).max(1e-12);
+    let scale = ColourScale::new(spec.v_min, spec.v_max);
     let colour = |v: f64| {
-        let t = ((v - spec.v_min) / range).clamp(0.0, 1.0);
-        let c = colorous::VIRIDIS.eval_continuous(t);
+        let c = colorous::VIRIDIS.eval_continuous(scale.position(v));
         Rgb([c.r, c.g, c.b])
     };
     // Field: bilinear in the cell-centred values.
@@ -143,39 +145,82 @@ pub fn render(spec: &FrameSpec) -> RgbImage {
     let bar_w = 18;
     for py in 0..height {
         let t = 1.0 - (py as f64 + 0.5) / height as f64;
-        let c = colour(spec.v_min + t * range);
+        let c = colorous::VIRIDIS.eval_continuous(t);
         for px in 0..bar_w {
-            img.put_pixel(bar_x + px, TOP + py, c);
+            img.put_pixel(bar_x + px, TOP + py, Rgb([c.r, c.g, c.b]));
         }
     }
     rect(&mut img, bar_x - 1, TOP - 1, bar_w + 2, height + 2, BLACK);
-    let lo = spec.v_min * 1e3;
-    let hi = spec.v_max * 1e3;
-    let step = nice_step(hi - lo, 6);
-    let mut tick = (lo / step).ceil() * step;
-    while tick <= hi + 1e-9 {
-        let py = TOP as f64 + (1.0 - (tick - lo) / (hi - lo)) * height as f64;
+    let mut placed: Vec<u32> = Vec::new();
+    for tick_mm_s in scale.ticks_mm_s() {
+        let t = scale.position(tick_mm_s as f64 * 1e-3);
+        let py = TOP as f64 + (1.0 - t) * height as f64;
         let py = (py.round() as u32).clamp(TOP, TOP + height - 1);
+        if placed.iter().any(|&q| q.abs_diff(py) < 11) {
+            continue;
+        }
+        placed.push(py);
         hline(&mut img, bar_x + bar_w, py, 4, BLACK);
+        let label = tick_mm_s.to_string();
         draw_text(
             &mut img,
             (bar_x + bar_w + 6) as i64,
             py as i64 - 4,
-            &format_tick(tick, step),
+            &label,
             1,
             BLACK,
         );
-        tick += step;
     }
-    draw_text(
-        &mut img,
-        bar_x as i64 - 4,
-        (TOP + height + 24) as i64,
-        "u_x (mm/s)",
-        1,
-        GREY,
-    );
+    let (lx, ly) = (bar_x as i64 - 10, (TOP + height) as i64);
+    draw_text(&mut img, lx, ly + 12, "u_x (mm/s)", 1, GREY);
+    draw_text(&mut img, lx, ly + 24, "sqrt scale", 1, GREY);
     img
+}
+
+/// Signed square-root colour scale over [v_min, v_max] (m/s).
+pub struct ColourScale {
+    lo: f64,
+    hi: f64,
+    reference: f64,
+}
+
+impl ColourScale {
+    pub fn new(v_min: f64, v_max: f64) -> Self {
+        let reference = v_min.abs().max(v_max.abs()).max(1e-12);
+        let s = |v: f64| v.signum() * (v.abs() / reference).sqrt();
+        Self {
+            lo: s(v_min),
+            hi: s(v_max).max(s(v_min) + 1e-12),
+            reference,
+        }
+    }
+
+    /// Position in [0, 1] of velocity v (m/s) on the colour map.
+    pub fn position(&self, v: f64) -> f64 {
+        let s = v.signum() * (v.abs() / self.reference).sqrt();
+        ((s - self.lo) / (self.hi - self.lo)).clamp(0.0, 1.0)
+    }
+
+    /// Tick values (mm/s) inside the range: 0 and 1..5 x 10^k of both signs.
+    pub fn ticks_mm_s(&self) -> Vec<i64> {
+        let lo = -(self.lo.min(0.0).powi(2)) * self.reference * 1e3;
+        let hi = self.hi.max(0.0).powi(2) * self.reference * 1e3;
+        let mut ticks = vec![0i64];
+        for mag in [1i64, 10, 100, 1000, 10000] {
+            for m in [1, 2, 3, 4, 5] {
+                let v = m * mag;
+                if (v as f64) <= hi + 1e-9 {
+                    ticks.push(v);
+                }
+                if (-v as f64) >= lo - 1e-9 {
+                    ticks.push(-v);
+                }
+            }
+        }
+        // Largest magnitudes first so they win the spacing check.
+        ticks.sort_by_key(|v| std::cmp::Reverse(v.abs()));
+        ticks
+    }
 }
 
 /// Renders and writes a PNG.
@@ -232,6 +277,29 @@ fn rect(img: &mut RgbImage, x: u32, y: u32, w: u32, h: u32, c: Rgb<u8>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn colour_scale_is_monotone_and_signed_sqrt() {
+        let s = ColourScale::new(-0.0225, 0.48);
+        assert_eq!(s.position(-0.0225), 0.0);
+        assert_eq!(s.position(0.48), 1.0);
+        let z = s.position(0.0);
+        // sqrt scale: 0 sits at sqrt(0.0225/0.48) / (1 + sqrt(0.0225/0.48)) of the bar.
+        let r = (0.0225f64 / 0.48).sqrt();
+        assert!((z - r / (1.0 + r)).abs() < 1e-12);
+        assert!((s.position(0.12) - z - 0.5 * (1.0 - z)).abs() < 1e-12);
+        let mut prev = -1.0;
+        for k in 0..100 {
+            let p = s.position(-0.0225 + k as f64 * 0.005);
+            assert!(p >= prev);
+            prev = p;
+        }
+        let t = s.ticks_mm_s();
+        assert!(
+            t.contains(&400) && t.contains(&-20) && t.contains(&0) && !t.contains(&500),
+            "{t:?}"
+        );
+    }
 
     #[test]
     fn nice_steps() {

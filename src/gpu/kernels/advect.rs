@@ -1,7 +1,6 @@
 //! `shaders/advect.wgsl`: momentum predictor (diffusion, then advection + boundary values +
-//! Brinkman). Semi-Lagrangian: diffuse + advect, two dispatches; MacCormack: diffuse + predict
-//! + correct, three.
-//! Grid: (ceil((nx+1)/64), ny+1, E).
+//! Brinkman). Semi-Lagrangian: diffuse and advect, two dispatches; MacCormack: diffuse,
+//! predict and correct, three. Grid: (ceil((nx+1)/64), ny+1, E).
 
 use super::{Dims, FieldLayout, Pipeline, fluid_module, groups};
 use crate::config::Advection;

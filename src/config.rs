@@ -22,6 +22,10 @@ pub const MAX_CFL: f64 = 1.0;
 /// paper's setup is exactly CFL = 1, which in f64 evaluates to 1 + 2e-16).
 pub const CFL_ROUNDING_ALLOWANCE: f64 = 1e-9;
 
+/// Largest ny: the pressure kernels keep one column in workgroup memory (`MAX_NY` in
+/// `shaders/pressure_rhs.wgsl`).
+pub const MAX_NY: u32 = 64;
+
 /// Keys that may be absent from the default configuration but can be set.
 const OPTIONAL_KEYS: &[(&str, &str)] = &[("inlet", "csv")];
 
@@ -180,6 +184,16 @@ impl Config {
         positive("domain.height_m", d.height_m)?;
         at_least("domain.nx", d.nx, 4)?;
         at_least("domain.ny", d.ny, 2)?;
+        if d.ny > MAX_NY {
+            return Err(range(
+                "domain.ny",
+                d.ny,
+                format!(
+                    "is above {MAX_NY}, the most cells across the channel the pressure kernels \
+                     hold per column: use a coarser grid across the height"
+                ),
+            ));
+        }
         if !(d.success_x_m > 0.0 && d.success_x_m < d.length_m) {
             return Err(range(
                 "domain.success_x_m",

@@ -684,20 +684,11 @@ impl FluidBatch {
             self.record_stage(&mut pass, Stage::Diagnostics, 1 - cur, 0);
             self.cur = cur;
         }
-        let bytes = (self.n_env * 32) as u64;
-        enc.copy_buffer_to_buffer(
-            &self.buffers.health,
-            0,
-            &self.buffers.health_staging,
-            0,
-            bytes,
-        );
-        self.ctx_queue.submit([enc.finish()]);
         for t in &mut self.time_s {
             *t += self.control_dt;
         }
         self.steps += 1;
-        self.read_health_staging(ctx)
+        self.submit_and_read_health(ctx, enc)
     }
 
     /// Health of the current state without stepping (e.g. of the initial state).
@@ -707,21 +698,21 @@ impl FluidBatch {
             let mut pass = enc.begin_compute_pass(&Default::default());
             self.record_stage(&mut pass, Stage::Diagnostics, 1 - self.cur, 0);
         }
-        let bytes = (self.n_env * 32) as u64;
-        enc.copy_buffer_to_buffer(
-            &self.buffers.health,
-            0,
-            &self.buffers.health_staging,
-            0,
-            bytes,
-        );
-        self.ctx_queue.submit([enc.finish()]);
-        self.read_health_staging(ctx)
+        self.submit_and_read_health(ctx, enc)
     }
 
-    fn read_health_staging(&self, ctx: &GpuContext) -> Result<Vec<EnvHealth>, SimError> {
-        let raw: Vec<[[f32; 4]; 2]> =
-            map_and_read(ctx, &self.buffers.health_staging, (self.n_env * 32) as u64)?;
+    /// Appends the copy of the health buffer to `enc`, submits it and reads the health back:
+    /// the one read-back of a control step (32 bytes per environment).
+    fn submit_and_read_health(
+        &self,
+        ctx: &GpuContext,
+        mut enc: wgpu::CommandEncoder,
+    ) -> Result<Vec<EnvHealth>, SimError> {
+        let bytes = (self.n_env * 32) as u64;
+        let b = &self.buffers;
+        enc.copy_buffer_to_buffer(&b.health, 0, &b.health_staging, 0, bytes);
+        self.ctx_queue.submit([enc.finish()]);
+        let raw: Vec<[[f32; 4]; 2]> = map_and_read(ctx, &b.health_staging, bytes)?;
         Ok(raw.iter().map(EnvHealth::from_raw).collect())
     }
 

@@ -213,3 +213,11 @@ fn waveform_from_csv_relative_to_config_file() {
     let r = Config::load(Some(&path), &[]).unwrap();
     assert!((r.waveform.at(0.25) - 0.2).abs() < 1e-12);
 }
+
+#[test]
+fn too_many_cells_across() {
+    assert_contains(
+        &err(&["domain.ny=65", "domain.height_m=0.0065"]),
+        &["`domain.ny` = 65", "above 64"],
+    );
+}

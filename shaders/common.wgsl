@@ -10,6 +10,7 @@
 //   poisson  [ny*ny | ny*nx | ny*nx]  Q (orthonormal DCT-II, Q[j*ny + k]), Thomas c', 1/m
 //   w_u, w_v like u, v: the input velocity after one explicit diffusion step
 //   u_hat, v_hat like u, v but vec4: (MacCormack predictor, min, max of its stencil, 0)
+//   members, member_diag, thrust (raw actions) [E][N]; swarm_box [E] (x/y extent of centres)
 // Boundary ghosts: walls (y = 0, H) no-slip (u odd, v = 0 on the wall faces); inlet (x = 0)
 // Dirichlet u, v = 0 (v odd); outlet (x = L) zero-gradient velocity, p = 0 on the face.
 // Mirrors `src/gpu/params.rs` (GpuParams, SubstepUniform).
@@ -31,8 +32,44 @@ struct Params {
     // 1 / dx, 1 / dy (1/m).
     inv_dx: f32,
     inv_dy: f32,
+    // Channel length L (m), dynamic viscosity mu (Pa s).
+    length: f32,
+    mu: f32,
+    // Swarm: members per environment, 1 if the empirical drag is on.
+    n_members: u32,
+    drag: u32,
+    // Member radius r, pressure-sampling radius R_s, effective depth 4 r^2 / (3 R_s) (m),
+    // mass 4/3 pi r^3 rho_s (kg).
+    radius: f32,
+    sample_radius: f32,
+    depth: f32,
+    mass: f32,
+    // Thrust bound F_max (N); thrust[] holds raw actions a, F_prop = F_max a / max(1, |a|).
+    max_thrust: f32,
+    pad4: f32,
+    pad5: f32,
+    pad6: f32,
+    pad7: f32,
+    pad8: f32,
+}
+
+// One swarm member (32 B); pinned = 1 holds it fixed.
+struct Member {
+    pos: vec2<f32>,
+    vel: vec2<f32>,
+    pinned: f32,
+    pad0: f32,
+    pad1: f32,
     pad2: f32,
-    pad3: f32,
+}
+
+// Forces on a member in the last substep (N) and its four pressure samples (Pa) (48 B).
+struct MemberDiag {
+    hydro: vec2<f32>,
+    drag: vec2<f32>,
+    contact: vec2<f32>,
+    prop: vec2<f32>,
+    p: vec4<f32>,
 }
 
 struct Substep {
@@ -60,12 +97,18 @@ struct Substep {
 @group(0) @binding(15) var<storage, read_write> health: array<vec4<f32>>;
 @group(0) @binding(16) var<storage, read_write> w_u: array<f32>;
 @group(0) @binding(17) var<storage, read_write> w_v: array<f32>;
+@group(0) @binding(18) var<storage, read_write> members: array<Member>;
+@group(0) @binding(19) var<storage, read_write> member_diag: array<MemberDiag>;
+@group(0) @binding(20) var<storage, read_write> thrust: array<vec2<f32>>;
+@group(0) @binding(21) var<storage, read_write> swarm_box: array<vec4<f32>>;
 
-// What a sampler reads: the input velocity, the MacCormack predictor, or the input velocity
-// after one explicit diffusion step, w = u + dt nu lap u (written by `diffuse`).
+// What a sampler reads: the input velocity, the MacCormack predictor, the input velocity
+// after one explicit diffusion step, w = u + dt nu lap u (written by `diffuse`), or the
+// output velocity (after the projection).
 const SRC_IN: u32 = 0u;
 const SRC_HAT: u32 = 1u;
 const SRC_DIFFUSED: u32 = 2u;
+const SRC_OUT: u32 = 3u;
 
 fn u_idx(e: u32, i: u32, j: u32) -> u32 {
     return (e * P.ny + j) * (P.nx + 1u) + i;
@@ -110,6 +153,9 @@ fn value_u(src: u32, e: u32, i: i32, j: i32) -> f32 {
     if (src == SRC_DIFFUSED) {
         return w_u[k];
     }
+    if (src == SRC_OUT) {
+        return u_out[k];
+    }
     return u_in[k];
 }
 
@@ -120,6 +166,9 @@ fn value_v(src: u32, e: u32, i: i32, j: i32) -> f32 {
     }
     if (src == SRC_DIFFUSED) {
         return w_v[k];
+    }
+    if (src == SRC_OUT) {
+        return v_out[k];
     }
     return v_in[k];
 }

@@ -59,6 +59,7 @@ pub struct Config {
     pub fluid: Fluid,
     pub time: Time,
     pub inlet: Inlet,
+    pub swarm: Swarm,
     pub solver: Solver,
 }
 
@@ -107,6 +108,66 @@ pub enum Advection {
     SemiLagrangian,
     /// Second-order MacCormack with the Selle et al. (2008) extrema clamp.
     Maccormack,
+}
+
+/// How the members are placed at reset.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Layout {
+    /// `grid_rows` rows of count / grid_rows members, `grid_spacing_m` apart, centred at
+    /// (`grid_centre_x_m`, H / 2).
+    Grid,
+    /// One `positions_m` entry per member.
+    Explicit,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Swarm {
+    pub count: u32,
+    pub radius_m: f64,
+    pub density_kg_m3: f64,
+    pub max_thrust_n: f64,
+    pub layout: Layout,
+    pub grid_rows: u32,
+    pub grid_spacing_m: f64,
+    pub grid_centre_x_m: f64,
+    #[serde(default)]
+    pub positions_m: Vec<[f64; 2]>,
+    #[serde(default)]
+    pub pinned: Vec<u32>,
+    pub drag: bool,
+}
+
+/// Most members per environment (one workgroup of 64 threads moves a swarm).
+pub const MAX_MEMBERS: u32 = 64;
+
+impl Swarm {
+    /// Initial member centres (m), in member order.
+    pub fn initial_positions(&self, height_m: f64) -> Vec<[f64; 2]> {
+        match self.layout {
+            Layout::Explicit => self.positions_m.clone(),
+            Layout::Grid => {
+                let rows = self.grid_rows.max(1) as usize;
+                let cols = self.count as usize / rows;
+                let s = self.grid_spacing_m;
+                (0..rows)
+                    .flat_map(|r| (0..cols).map(move |c| (r, c)))
+                    .map(|(r, c)| {
+                        [
+                            self.grid_centre_x_m + s * (c as f64 - (cols as f64 - 1.0) / 2.0),
+                            height_m / 2.0 + s * (r as f64 - (rows as f64 - 1.0) / 2.0),
+                        ]
+                    })
+                    .collect()
+            }
+        }
+    }
+
+    /// Mass of one member: the 3D sphere, 4/3 pi r^3 rho_s (kg).
+    pub fn mass_kg(&self) -> f64 {
+        4.0 / 3.0 * std::f64::consts::PI * self.radius_m.powi(3) * self.density_kg_m3
+    }
 }
 
 /// Order of the semi-Lagrangian backtrace (departure point of a trajectory).
@@ -219,6 +280,7 @@ impl Config {
         positive("time.control_dt_s", self.time.control_dt_s)?;
         at_least("time.substeps", self.time.substeps, 1)?;
         positive("inlet.period_s", self.inlet.period_s)?;
+        self.validate_swarm()?;
 
         let waveform = match &self.inlet.csv {
             Some(path) => Waveform::from_csv(path, self.inlet.period_s)?,
@@ -259,6 +321,79 @@ impl Config {
             config: self,
             waveform,
         })
+    }
+
+    fn validate_swarm(&self) -> Result<(), ConfigError> {
+        let s = &self.swarm;
+        let (length, height) = (self.domain.length_m, self.domain.height_m);
+        if s.count > MAX_MEMBERS {
+            return Err(range(
+                "swarm.count",
+                s.count,
+                format!("is above {MAX_MEMBERS}, the most members one environment holds"),
+            ));
+        }
+        if s.count == 0 {
+            return Ok(());
+        }
+        positive("swarm.radius_m", s.radius_m)?;
+        positive("swarm.density_kg_m3", s.density_kg_m3)?;
+        positive("swarm.max_thrust_n", s.max_thrust_n)?;
+        if 2.0 * s.radius_m >= height {
+            return Err(range(
+                "swarm.radius_m",
+                s.radius_m,
+                format!("gives a diameter that does not fit the channel height {height} m"),
+            ));
+        }
+        if s.layout == Layout::Grid {
+            at_least("swarm.grid_rows", s.grid_rows, 1)?;
+            if s.count % s.grid_rows != 0 {
+                return Err(range(
+                    "swarm.count",
+                    s.count,
+                    format!("must be a multiple of swarm.grid_rows = {}", s.grid_rows),
+                ));
+            }
+            positive("swarm.grid_spacing_m", s.grid_spacing_m)?;
+        } else if s.positions_m.len() != s.count as usize {
+            return Err(range(
+                "swarm.positions_m",
+                format!("{} entries", s.positions_m.len()),
+                format!("needs one [x, y] per member (swarm.count = {})", s.count),
+            ));
+        }
+        let r = s.radius_m;
+        let pos = s.initial_positions(height);
+        for (k, p) in pos.iter().enumerate() {
+            if !(p[0] >= r && p[0] <= length - r && p[1] >= r && p[1] <= height - r) {
+                return Err(range(
+                    "swarm",
+                    format!("member {k} at ({:.6}, {:.6}) m", p[0], p[1]),
+                    format!(
+                        "lies less than a radius from a wall or an end of the channel \
+                         ({length} x {height} m): move the grid or the explicit positions"
+                    ),
+                ));
+            }
+            for (j, q) in pos.iter().enumerate().take(k) {
+                if (p[0] - q[0]).hypot(p[1] - q[1]) < 2.0 * r {
+                    return Err(range(
+                        "swarm",
+                        format!("members {j} and {k}"),
+                        "overlap at reset: increase swarm.grid_spacing_m or move them".into(),
+                    ));
+                }
+            }
+        }
+        if let Some(&bad) = s.pinned.iter().find(|&&i| i >= s.count) {
+            return Err(range(
+                "swarm.pinned",
+                bad,
+                format!("is not a member index (0..{})", s.count),
+            ));
+        }
+        Ok(())
     }
 
     pub fn dx(&self) -> f64 {

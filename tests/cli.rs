@@ -35,6 +35,8 @@ const SMALL: &[&str] = &[
     "domain.success_x_m=0.002",
     "--set",
     "domain.failure_x_m=0.008",
+    "--set",
+    "swarm.count=0",
 ];
 
 #[test]

@@ -198,7 +198,7 @@ fn project_matches_cpu() {
 #[test]
 fn diagnostics_match_cpu_and_count_non_finite_values() {
     let (_lock, ctx) = common::gpu();
-    let b = batch(&ctx, "maccormack");
+    let mut b = batch(&ctx, "maccormack");
     let g = *b.grid();
     let mut n = Noise::new(19);
     let mut u = n.vec(E * g.n_u(), 0.3);

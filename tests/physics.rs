@@ -137,7 +137,7 @@ fn triphasic_inlet_conserves_mass_through_every_cross_section() {
     let (_lock, ctx) = common::gpu();
     // The paper's grid and waveform: 0.3 s covers the systolic ramps, the plateau, the
     // deceleration, the reversal and the return to forward flow.
-    let r = Config::load(None, &[]).unwrap();
+    let r = Config::load(None, &["swarm.count=0".into()]).unwrap();
     let mut b = FluidBatch::new(&ctx, &r, 1).unwrap();
     check_conservation(&ctx, &mut b, 60, "paper grid");
 }

@@ -26,10 +26,54 @@ pub struct GpuParams {
     /// 1 / dx, 1 / dy (1/m), so samplers multiply instead of divide.
     pub inv_dx: f32,
     pub inv_dy: f32,
-    pub pad2: f32,
-    pub pad3: f32,
+    /// Channel length L (m) and dynamic viscosity mu (Pa s).
+    pub length: f32,
+    pub mu: f32,
+    /// Members per environment and 1 if the empirical drag is on.
+    pub n_members: u32,
+    pub drag: u32,
+    /// Member radius r, pressure-sampling radius R_s = r + 2 dx, effective depth
+    /// 4 r^2 / (3 R_s) (m) and mass 4/3 pi r^3 rho_s (kg).
+    pub radius: f32,
+    pub sample_radius: f32,
+    pub depth: f32,
+    pub mass: f32,
+    /// Thrust bound F_max (N): F_prop = F_max a / max(1, |a|) for a raw action a.
+    pub max_thrust: f32,
+    pub pad4: f32,
+    pub pad5: f32,
+    pub pad6: f32,
+    pub pad7: f32,
+    pub pad8: f32,
 }
-const _: () = assert!(std::mem::size_of::<GpuParams>() == 64);
+const _: () = assert!(std::mem::size_of::<GpuParams>() == 112);
+
+/// One swarm member as the GPU stores it (WGSL `Member`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq, Default)]
+pub struct GpuMember {
+    /// Centre (m).
+    pub pos: [f32; 2],
+    /// Velocity (m/s).
+    pub vel: [f32; 2],
+    /// 1: held fixed.
+    pub pinned: f32,
+    pub pad: [f32; 3],
+}
+const _: () = assert!(std::mem::size_of::<GpuMember>() == 32);
+
+/// Forces on a member during the last substep (N) and its pressure samples (Pa)
+/// (WGSL `MemberDiag`). Samples k = 0..3 at angles 0, 90, 180, 270 degrees.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq, Default)]
+pub struct GpuMemberDiag {
+    pub hydro: [f32; 2],
+    pub drag: [f32; 2],
+    pub contact: [f32; 2],
+    pub prop: [f32; 2],
+    pub p: [f32; 4],
+}
+const _: () = assert!(std::mem::size_of::<GpuMemberDiag>() == 48);
 
 /// Index of the substep being run (WGSL `Substep`), one per dynamic-offset slot.
 #[repr(C)]

@@ -7,6 +7,7 @@ pub const PRESSURE_RHS: &str = include_str!("../../shaders/pressure_rhs.wgsl");
 pub const PRESSURE_SOLVE: &str = include_str!("../../shaders/pressure_solve.wgsl");
 pub const PROJECT: &str = include_str!("../../shaders/project.wgsl");
 pub const DIAGNOSTICS: &str = include_str!("../../shaders/diagnostics.wgsl");
+pub const MEMBERS: &str = include_str!("../../shaders/members.wgsl");
 pub const LOOP_PROBE: &str = include_str!("../../shaders/loop_probe.wgsl");
 
 /// (file name, full module source) of every shader module the program builds.
@@ -18,6 +19,7 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
         ("pressure_solve.wgsl", with_common(PRESSURE_SOLVE)),
         ("project.wgsl", with_common(PROJECT)),
         ("diagnostics.wgsl", with_common(DIAGNOSTICS)),
+        ("members.wgsl", with_common(MEMBERS)),
         ("loop_probe.wgsl", LOOP_PROBE.to_string()),
     ]
 }

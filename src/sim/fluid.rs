@@ -19,10 +19,10 @@ use wgpu::util::DeviceExt;
 use super::{EnvHealth, Grid, poisson::PoissonTables};
 use crate::config::{Advection, Backtrace, Resolved};
 use crate::gpu::kernels::{
-    Advect, Diagnostics, Dims, FieldBinding, FieldLayout, PressureRhs, PressureSolve, Project,
-    map_and_read, read_buffer,
+    Advect, Diagnostics, Dims, FieldBinding, FieldLayout, Members, PressureRhs, PressureSolve,
+    Project, map_and_read, read_buffer,
 };
-use crate::gpu::params::{GpuParams, SubstepUniform};
+use crate::gpu::params::{GpuMember, GpuMemberDiag, GpuParams, SubstepUniform};
 use crate::gpu::{GpuContext, GpuError};
 use crate::waveform::Waveform;
 
@@ -103,6 +103,7 @@ struct Pipelines {
     solve: PressureSolve,
     project: Project,
     diagnostics: Diagnostics,
+    members: Members,
 }
 
 struct Buffers {
@@ -123,6 +124,10 @@ struct Buffers {
     health_staging: wgpu::Buffer,
     w_u: wgpu::Buffer,
     w_v: wgpu::Buffer,
+    members: wgpu::Buffer,
+    member_diag: wgpu::Buffer,
+    thrust: wgpu::Buffer,
+    swarm_box: wgpu::Buffer,
 }
 
 /// E channel flows advanced together.
@@ -149,8 +154,12 @@ pub struct FluidBatch {
     time_s: Vec<f64>,
     /// Waveform phase offset of each environment (s).
     phase_s: Vec<f64>,
-    /// Host copy of the body buffer (solid fraction, body velocity) for writing fields.
-    body_host: Vec<[f32; 4]>,
+    /// Members per environment, their initial centres (m) and pinned flags.
+    n_members: usize,
+    initial_members: Vec<GpuMember>,
+    /// Members and their forces as read back with the health after the last step.
+    last_members: Vec<GpuMember>,
+    last_diag: Vec<GpuMemberDiag>,
     steps: u64,
 }
 
@@ -202,6 +211,21 @@ impl FluidBatch {
             });
         }
         let substeps = config.time.substeps as usize;
+        let swarm = &config.swarm;
+        let n_members = swarm.count as usize;
+        // Pressure samples just outside the painted solid: R_s = r + 2 dx (SPEC section 2).
+        let sample_radius = swarm.radius_m + 2.0 * grid.dx();
+        let initial_members: Vec<GpuMember> = swarm
+            .initial_positions(grid.height_m)
+            .iter()
+            .enumerate()
+            .map(|(k, p)| GpuMember {
+                pos: [p[0] as f32, p[1] as f32],
+                vel: [0.0; 2],
+                pinned: swarm.pinned.contains(&(k as u32)) as u32 as f32,
+                pad: [0.0; 3],
+            })
+            .collect();
         let params = GpuParams {
             nx: grid.nx as u32,
             ny: grid.ny as u32,
@@ -217,8 +241,20 @@ impl FluidBatch {
             pad1: 0.0,
             inv_dx: (1.0 / grid.dx()) as f32,
             inv_dy: (1.0 / grid.dy()) as f32,
-            pad2: 0.0,
-            pad3: 0.0,
+            length: grid.length_m as f32,
+            mu: config.fluid.viscosity_pa_s as f32,
+            n_members: n_members as u32,
+            drag: config.swarm.drag as u32,
+            radius: swarm.radius_m as f32,
+            sample_radius: sample_radius as f32,
+            depth: (4.0 * swarm.radius_m * swarm.radius_m / (3.0 * sample_radius)) as f32,
+            mass: swarm.mass_kg() as f32,
+            max_thrust: swarm.max_thrust_n as f32,
+            pad4: 0.0,
+            pad5: 0.0,
+            pad6: 0.0,
+            pad7: 0.0,
+            pad8: 0.0,
         };
         let device = &ctx.device;
         let layout = FieldLayout::new(device);
@@ -228,10 +264,11 @@ impl FluidBatch {
             solve: PressureSolve::new(device, &layout),
             project: Project::new(device, &layout),
             diagnostics: Diagnostics::new(device, &layout),
+            members: Members::new(device, &layout),
             layout,
         };
         let stride = ctx.limits.min_uniform_buffer_offset_alignment.max(16);
-        let buffers = Self::create_buffers(ctx, &grid, &params, n_env, substeps, stride);
+        let buffers = Self::create_buffers(ctx, &grid, &params, n_env, substeps, n_members, stride);
         let bind = [0, 1].map(|g| Self::bind_group(device, &pipelines.layout, &buffers, g));
         let mut batch = Self {
             ctx_device: device.clone(),
@@ -252,7 +289,10 @@ impl FluidBatch {
             cur: 0,
             time_s: vec![0.0; n_env],
             phase_s: vec![0.0; n_env],
-            body_host: vec![[0.0; 4]; n_env * grid.n_cells()],
+            n_members,
+            initial_members,
+            last_members: Vec::new(),
+            last_diag: Vec::new(),
             steps: 0,
         };
         for e in 0..n_env {
@@ -267,6 +307,7 @@ impl FluidBatch {
         params: &GpuParams,
         n_env: usize,
         substeps: usize,
+        n_members: usize,
         stride: u32,
     ) -> Buffers {
         let device = &ctx.device;
@@ -326,9 +367,13 @@ impl FluidBatch {
             health: zeros("health", n_env * 32),
             w_u: zeros("w_u", n_env * grid.n_u() * f),
             w_v: zeros("w_v", n_env * grid.n_v() * f),
+            members: zeros("members", n_env * n_members * 32),
+            member_diag: zeros("member diag", n_env * n_members * 48),
+            thrust: zeros("thrust", n_env * n_members * 8),
+            swarm_box: zeros("swarm box", n_env * 16),
             health_staging: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("health staging"),
-                size: (n_env * 32) as u64,
+                label: Some("health + members staging"),
+                size: (n_env * (32 + n_members * (32 + 48))) as u64,
                 usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             }),
@@ -341,7 +386,7 @@ impl FluidBatch {
         b: &Buffers,
         g: usize,
     ) -> wgpu::BindGroup {
-        let storage: [(&wgpu::Buffer, FieldBinding); 16] = [
+        let storage: [(&wgpu::Buffer, FieldBinding); 20] = [
             (&b.u[g], FieldBinding::UIn),
             (&b.v[g], FieldBinding::VIn),
             (&b.u[1 - g], FieldBinding::UOut),
@@ -358,6 +403,10 @@ impl FluidBatch {
             (&b.health, FieldBinding::Health),
             (&b.w_u, FieldBinding::WU),
             (&b.w_v, FieldBinding::WV),
+            (&b.members, FieldBinding::Members),
+            (&b.member_diag, FieldBinding::MemberDiag),
+            (&b.thrust, FieldBinding::Thrust),
+            (&b.swarm_box, FieldBinding::SwarmBox),
         ];
         let mut entries = vec![
             wgpu::BindGroupEntry {
@@ -433,7 +482,7 @@ impl FluidBatch {
 
     /// Dispatches per substep (advection scheme dependent) and per control step.
     pub fn dispatches_per_substep(&self) -> u32 {
-        Advect::dispatches(self.scheme) + 4
+        Advect::dispatches(self.scheme) + 4 + if self.n_members > 0 { 2 } else { 0 }
     }
 
     pub fn dispatches_per_control_step(&self) -> u32 {
@@ -479,16 +528,79 @@ impl FluidBatch {
         self.write_env(FieldBinding::VIn, e, &v)?;
         self.write_env(FieldBinding::Pressure, e, &p)?;
         self.set_body(e, &vec![[0.0; 4]; g.n_cells()])?;
+        if self.n_members > 0 {
+            let members = self.initial_members.clone();
+            self.set_members(e, &members)?;
+            self.set_actions(e, &vec![[0.0; 2]; self.n_members])?;
+        }
         Ok(())
     }
 
+    /// Members per environment.
+    pub fn n_members(&self) -> usize {
+        self.n_members
+    }
+
+    /// Places the members of environment e (positions, velocities, pinned flags).
+    pub fn set_members(&mut self, e: usize, members: &[GpuMember]) -> Result<(), SimError> {
+        assert_eq!(members.len(), self.n_members, "one entry per member");
+        self.write_env_pod(FieldBinding::Members, e, members)?;
+        let (xs, ys): (Vec<f32>, Vec<f32>) = members.iter().map(|m| (m.pos[0], m.pos[1])).unzip();
+        let lo = |v: &[f32]| v.iter().copied().fold(f32::INFINITY, f32::min);
+        let hi = |v: &[f32]| v.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        self.write_env(
+            FieldBinding::SwarmBox,
+            e,
+            &[lo(&xs), hi(&xs), lo(&ys), hi(&ys)],
+        )?;
+        let k = e * self.n_members;
+        if self.last_members.len() >= k + self.n_members {
+            self.last_members[k..k + self.n_members].copy_from_slice(members);
+        }
+        Ok(())
+    }
+
+    /// Sets the raw actions a (one [ax, ay] per member) of environment e for the coming
+    /// steps; the kernels apply F_prop = F_max a / max(1, |a|).
+    pub fn set_actions(&self, e: usize, actions: &[[f32; 2]]) -> Result<(), SimError> {
+        assert_eq!(actions.len(), self.n_members, "one action per member");
+        self.write_env_pod(FieldBinding::Thrust, e, actions)
+    }
+
+    /// Raw actions of every environment at once, [E][N].
+    pub fn set_all_actions(&self, actions: &[[f32; 2]]) {
+        assert_eq!(
+            actions.len(),
+            self.n_env * self.n_members,
+            "one action per member"
+        );
+        self.ctx_queue.write_buffer(
+            self.buffer(FieldBinding::Thrust),
+            0,
+            bytemuck::cast_slice(actions),
+        );
+    }
+
+    /// Members of every environment, [E][N], as read back with the last step's health.
+    pub fn members(&self) -> &[GpuMember] {
+        &self.last_members
+    }
+
+    /// Forces and pressure samples of every member during the last substep, [E][N].
+    pub fn member_forces(&self) -> &[GpuMemberDiag] {
+        &self.last_diag
+    }
+
     /// Sets the solid fraction and body velocity of every cell of environment e:
-    /// `[chi, u_body, v_body, 0]`, [ny][nx] (chi in [0, 1]).
+    /// `[chi, u_body, v_body, 0]`, [ny][nx] (chi in [0, 1]). A batch with members repaints
+    /// the body field from them every substep, so this is for member-free batches.
     pub fn set_body(&mut self, e: usize, cells: &[[f32; 4]]) -> Result<(), SimError> {
         self.check_env(e)?;
-        let n = self.grid.n_cells();
-        assert_eq!(cells.len(), n, "body needs one entry per cell");
-        self.body_host[e * n..(e + 1) * n].copy_from_slice(cells);
+        assert_eq!(
+            cells.len(),
+            self.grid.n_cells(),
+            "body needs one entry per cell"
+        );
         self.write_env_pod(FieldBinding::Body, e, cells)
     }
 
@@ -511,6 +623,10 @@ impl FluidBatch {
             FieldBinding::Health => &b.health,
             FieldBinding::WU => &b.w_u,
             FieldBinding::WV => &b.w_v,
+            FieldBinding::Members => &b.members,
+            FieldBinding::MemberDiag => &b.member_diag,
+            FieldBinding::Thrust => &b.thrust,
+            FieldBinding::SwarmBox => &b.swarm_box,
         }
     }
 
@@ -529,6 +645,10 @@ impl FluidBatch {
             FieldBinding::DivStar => g.nx,
             FieldBinding::ColStats => 4 * (g.nx + 1),
             FieldBinding::Health => 8,
+            FieldBinding::Members => 8 * self.n_members,
+            FieldBinding::MemberDiag => 12 * self.n_members,
+            FieldBinding::Thrust => 2 * self.n_members,
+            FieldBinding::SwarmBox => 4,
         }
     }
 
@@ -595,10 +715,11 @@ impl FluidBatch {
         let mut u_faces = self.read_env(ctx, FieldBinding::UIn, e)?;
         let mut v_faces = self.read_env(ctx, FieldBinding::VIn, e)?;
         // Solid cells hold the body velocity (SPEC section 7): set the faces of solid cells.
-        let body = &self.body_host[e * g.n_cells()..(e + 1) * g.n_cells()];
+        let body = self.read_env(ctx, FieldBinding::Body, e)?;
         for j in 0..g.ny {
             for i in 0..g.nx {
-                let [chi, ub, vb, _] = body[g.c_idx(i, j)];
+                let c = 4 * g.c_idx(i, j);
+                let [chi, ub, vb] = [body[c], body[c + 1], body[c + 2]];
                 if chi >= 0.5 {
                     u_faces[g.u_idx(i, j)] = ub;
                     u_faces[g.u_idx(i + 1, j)] = ub;
@@ -670,6 +791,14 @@ impl FluidBatch {
             });
             let mut cur = self.cur;
             for s in 0..self.substeps {
+                if self.n_members > 0 {
+                    self.pipelines.members.record_paint(
+                        &mut pass,
+                        &self.bind[cur],
+                        self.offset(s),
+                        self.dims(),
+                    );
+                }
                 for stage in [
                     Stage::Advect,
                     Stage::PressureRhs,
@@ -677,6 +806,14 @@ impl FluidBatch {
                     Stage::Project,
                 ] {
                     self.record_stage(&mut pass, stage, cur, s);
+                }
+                if self.n_members > 0 {
+                    self.pipelines.members.record_move(
+                        &mut pass,
+                        &self.bind[cur],
+                        self.offset(s),
+                        self.dims(),
+                    );
                 }
                 cur = 1 - cur;
             }
@@ -692,7 +829,7 @@ impl FluidBatch {
     }
 
     /// Health of the current state without stepping (e.g. of the initial state).
-    pub fn health(&self, ctx: &GpuContext) -> Result<Vec<EnvHealth>, SimError> {
+    pub fn health(&mut self, ctx: &GpuContext) -> Result<Vec<EnvHealth>, SimError> {
         let mut enc = self.ctx_device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
@@ -703,17 +840,31 @@ impl FluidBatch {
 
     /// Appends the copy of the health buffer to `enc`, submits it and reads the health back:
     /// the one read-back of a control step (32 bytes per environment).
+    /// With members, the copy also carries the members and their forces (32 + 48 bytes each).
     fn submit_and_read_health(
-        &self,
+        &mut self,
         ctx: &GpuContext,
         mut enc: wgpu::CommandEncoder,
     ) -> Result<Vec<EnvHealth>, SimError> {
-        let bytes = (self.n_env * 32) as u64;
+        let health_bytes = (self.n_env * 32) as u64;
+        let member_bytes = (self.n_env * self.n_members * 32) as u64;
+        let diag_bytes = (self.n_env * self.n_members * 48) as u64;
         let b = &self.buffers;
-        enc.copy_buffer_to_buffer(&b.health, 0, &b.health_staging, 0, bytes);
+        enc.copy_buffer_to_buffer(&b.health, 0, &b.health_staging, 0, health_bytes);
+        if self.n_members > 0 {
+            enc.copy_buffer_to_buffer(&b.members, 0, &b.health_staging, health_bytes, member_bytes);
+            let at = health_bytes + member_bytes;
+            enc.copy_buffer_to_buffer(&b.member_diag, 0, &b.health_staging, at, diag_bytes);
+        }
         self.ctx_queue.submit([enc.finish()]);
-        let raw: Vec<[[f32; 4]; 2]> = map_and_read(ctx, &b.health_staging, bytes)?;
-        Ok(raw.iter().map(EnvHealth::from_raw).collect())
+        let total = health_bytes + member_bytes + diag_bytes;
+        let raw: Vec<u8> = map_and_read(ctx, &b.health_staging, total)?;
+        let (h, rest) = raw.split_at(health_bytes as usize);
+        let (m, d) = rest.split_at(member_bytes as usize);
+        self.last_members = bytemuck::pod_collect_to_vec(m);
+        self.last_diag = bytemuck::pod_collect_to_vec(d);
+        let health: Vec<[[f32; 4]; 2]> = bytemuck::pod_collect_to_vec(h);
+        Ok(health.iter().map(EnvHealth::from_raw).collect())
     }
 
     /// Runs the given stages of substep `s` once on the current bind group, without swapping

@@ -18,7 +18,8 @@ pub fn gpu() -> (MutexGuard<'static, ()>, GpuContext) {
     (guard, ctx)
 }
 
-/// A channel of nx x ny cells of 0.1 mm (the paper's spacing) with extra `--set` overrides.
+/// A channel of nx x ny cells of 0.1 mm (the paper's spacing), no swarm, with extra `--set`
+/// overrides (later ones win, so a test can set `swarm.count` again).
 pub fn small_config(nx: u32, ny: u32, extra: &[&str]) -> Resolved {
     let length = nx as f64 * 1e-4;
     let mut sets = vec![
@@ -28,6 +29,7 @@ pub fn small_config(nx: u32, ny: u32, extra: &[&str]) -> Resolved {
         format!("domain.height_m={}", ny as f64 * 1e-4),
         format!("domain.success_x_m={}", 0.2 * length),
         format!("domain.failure_x_m={}", 0.8 * length),
+        "swarm.count=0".to_string(),
     ];
     sets.extend(extra.iter().map(|s| s.to_string()));
     Config::load(None, &sets).unwrap_or_else(|e| panic!("test config: {e}"))

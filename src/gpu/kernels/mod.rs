@@ -5,12 +5,14 @@
 
 pub mod advect;
 pub mod diagnostics;
+pub mod members;
 pub mod pressure_rhs;
 pub mod pressure_solve;
 pub mod project;
 
 pub use advect::Advect;
 pub use diagnostics::Diagnostics;
+pub use members::Members;
 pub use pressure_rhs::PressureRhs;
 pub use pressure_solve::PressureSolve;
 pub use project::Project;
@@ -18,10 +20,10 @@ pub use project::Project;
 use super::{GpuContext, GpuError};
 
 /// Bindings of `common.wgsl`: 0 params (uniform), 1 substep (uniform, dynamic offset),
-/// 2..=17 storage buffers in the order of [`FieldBinding`].
-pub const STORAGE_BINDINGS: u32 = 16;
+/// 2..=21 storage buffers in the order of [`FieldBinding`].
+pub const STORAGE_BINDINGS: u32 = 20;
 
-/// Storage bindings 2..=17 of the field bind group.
+/// Storage bindings 2..=21 of the field bind group.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FieldBinding {
     UIn = 2,
@@ -40,6 +42,10 @@ pub enum FieldBinding {
     Health,
     WU,
     WV,
+    Members,
+    MemberDiag,
+    Thrust,
+    SwarmBox,
 }
 
 /// The bind group layout and pipeline layout shared by every fluid kernel.

@@ -348,7 +348,7 @@ impl Config {
         }
         if s.layout == Layout::Grid {
             at_least("swarm.grid_rows", s.grid_rows, 1)?;
-            if s.count % s.grid_rows != 0 {
+            if !s.count.is_multiple_of(s.grid_rows) {
                 return Err(range(
                     "swarm.count",
                     s.count,

@@ -3,7 +3,7 @@
 //! control step ([`CpuBatch::step`]) built from the twins.
 
 use crate::config::Advection;
-use crate::gpu::params::GpuParams;
+use crate::gpu::params::{GpuMember, GpuMemberDiag, GpuParams};
 
 use super::EnvHealth;
 
@@ -551,4 +551,224 @@ impl CpuBatch {
         }
         diagnostics(&p, &self.u, &self.v, &self.p, &self.divstar)
     }
+}
+
+/// Twin of `paint_bodies` (`members.wgsl`): the body field [E][ny][nx] from the members.
+pub fn paint_bodies(p: &GpuParams, members: &[GpuMember], swarm_box: &[[f32; 4]]) -> Vec<[f32; 4]> {
+    let (nx, ny, ne, n) = (
+        p.nx as usize,
+        p.ny as usize,
+        p.n_env as usize,
+        p.n_members as usize,
+    );
+    let mut body = vec![[0.0f32; 4]; ne * nx * ny];
+    let reach = p.radius + p.dx;
+    for e in 0..ne {
+        let bx = swarm_box[e];
+        for j in 0..ny {
+            for i in 0..nx {
+                let c = [(i as f32 + 0.5) * p.dx, (j as f32 + 0.5) * p.dy];
+                let mut cell = [0.0f32; 4];
+                if c[0] >= bx[0] - reach
+                    && c[0] <= bx[1] + reach
+                    && c[1] >= bx[2] - reach
+                    && c[1] <= bx[3] + reach
+                {
+                    for mem in &members[e * n..(e + 1) * n] {
+                        let d = (c[0] - mem.pos[0]).hypot(c[1] - mem.pos[1]);
+                        let chi = (0.5 + (p.radius - d) * p.inv_dx).clamp(0.0, 1.0);
+                        if chi > cell[0] {
+                            cell = [chi, mem.vel[0], mem.vel[1], 0.0];
+                        }
+                    }
+                }
+                body[c_idx(p, e, i, j)] = cell;
+            }
+        }
+    }
+    body
+}
+
+/// F_prop = F_max a / max(1, |a|) (N).
+pub fn propulsion(p: &GpuParams, a: [f32; 2]) -> [f32; 2] {
+    let s = p.max_thrust / a[0].hypot(a[1]).max(1.0);
+    [s * a[0], s * a[1]]
+}
+
+/// C_d |v_rel| of the Schiller-Naumann law (m/s), as `members.wgsl` evaluates it.
+pub fn cd_times_speed(p: &GpuParams, speed: f32) -> f32 {
+    let re = p.rho * speed * 2.0 * p.radius / p.mu;
+    let stokes = 24.0 * p.mu / (p.rho * 2.0 * p.radius);
+    if re < 0.1 {
+        stokes
+    } else if re < 1000.0 {
+        stokes * (1.0 + 0.15 * re.powf(0.687))
+    } else {
+        0.44 * speed
+    }
+}
+
+/// Pressure at (x, y), bilinear in the cell centres (twin of `sample_p`).
+fn sample_p(p: &GpuParams, pres: &[f32], e: usize, x: f32, y: f32) -> f32 {
+    let (nx, ny) = (p.nx as usize, p.ny as usize);
+    let fx = (x * p.inv_dx - 0.5).clamp(0.0, (nx - 1) as f32);
+    let fy = (y * p.inv_dy - 0.5).clamp(0.0, (ny - 1) as f32);
+    let i0 = (fx as usize).min(nx - 2);
+    let j0 = (fy as usize).min(ny - 2);
+    let (tx, ty) = (fx - i0 as f32, fy - j0 as f32);
+    let at = |i, j| pres[c_idx(p, e, i, j)];
+    let bottom = mix(at(i0, j0), at(i0 + 1, j0), tx);
+    let top = mix(at(i0, j0 + 1), at(i0 + 1, j0 + 1), tx);
+    mix(bottom, top, ty)
+}
+
+/// Twin of `move_members` (`members.wgsl`) for every environment: the moved members, their
+/// forces and samples, and the swarm boxes. `u`, `v` are the projected velocity.
+pub fn move_members(
+    p: &GpuParams,
+    members: &[GpuMember],
+    actions: &[[f32; 2]],
+    pres: &[f32],
+    u: &[f32],
+    v: &[f32],
+) -> (Vec<GpuMember>, Vec<GpuMemberDiag>, Vec<[f32; 4]>) {
+    let (ne, n) = (p.n_env as usize, p.n_members as usize);
+    let g = G {
+        p,
+        u,
+        v,
+        u_hat: &[],
+        v_hat: &[],
+    };
+    let pi = std::f32::consts::PI;
+    let (mut out, mut diags, mut boxes) = (Vec::new(), Vec::new(), Vec::new());
+    for e in 0..ne {
+        let swarm = &members[e * n..(e + 1) * n];
+        let force: Vec<[f32; 2]> = actions[e * n..(e + 1) * n]
+            .iter()
+            .map(|&a| propulsion(p, a))
+            .collect();
+        let mut pos = Vec::new();
+        let mut vel = Vec::new();
+        for (m, me) in swarm.iter().enumerate() {
+            let clampq = |q: [f32; 2]| [q[0].clamp(0.0, p.length), q[1].clamp(0.0, p.height)];
+            let rs = p.sample_radius;
+            let q = [
+                clampq([me.pos[0] + rs, me.pos[1]]),
+                clampq([me.pos[0], me.pos[1] + rs]),
+                clampq([me.pos[0] - rs, me.pos[1]]),
+                clampq([me.pos[0], me.pos[1] - rs]),
+            ];
+            let ps: Vec<f32> = q.iter().map(|q| sample_p(p, pres, e, q[0], q[1])).collect();
+            let mut uf = [0.0f32; 2];
+            for q in &q {
+                uf[0] += g.stencil_u(Src::In, e, q[0], q[1]).bilerp();
+                uf[1] += g.stencil_v(Src::In, e, q[0], q[1]).bilerp();
+            }
+            uf = [uf[0] * 0.25, uf[1] * 0.25];
+            let c = -(pi * p.radius / 2.0) * p.depth;
+            let hydro = [c * (ps[0] - ps[2]), c * (ps[1] - ps[3])];
+            let rel = [uf[0] - me.vel[0], uf[1] - me.vel[1]];
+            let kd = if p.drag != 0 {
+                0.5 * p.rho * pi * p.radius * p.radius * cd_times_speed(p, rel[0].hypot(rel[1]))
+            } else {
+                0.0
+            };
+            let mut contact = [0.0f32; 2];
+            for (j, other) in swarm.iter().enumerate() {
+                let d = [me.pos[0] - other.pos[0], me.pos[1] - other.pos[1]];
+                let dist = d[0].hypot(d[1]);
+                if j != m && dist > 0.0 && dist <= 2.0 * p.radius {
+                    let nij = [d[0] / dist, d[1] / dist];
+                    let push = (force[j][0] * nij[0] + force[j][1] * nij[1]).max(0.0)
+                        + (-(force[m][0] * nij[0] + force[m][1] * nij[1])).max(0.0);
+                    contact = [contact[0] + push * nij[0], contact[1] + push * nij[1]];
+                }
+            }
+            diags.push(GpuMemberDiag {
+                hydro,
+                drag: [kd * rel[0], kd * rel[1]],
+                contact,
+                prop: force[m],
+                p: [ps[0], ps[1], ps[2], ps[3]],
+            });
+            if me.pinned == 0.0 {
+                let h = p.dt / p.mass;
+                let nv = |k: usize| {
+                    (me.vel[k] + h * (hydro[k] + force[m][k] + contact[k] + kd * uf[k]))
+                        / (1.0 + h * kd)
+                };
+                let nvel = [nv(0), nv(1)];
+                vel.push(nvel);
+                pos.push([me.pos[0] + p.dt * nvel[0], me.pos[1] + p.dt * nvel[1]]);
+            } else {
+                vel.push([0.0, 0.0]);
+                pos.push(me.pos);
+            }
+        }
+        for _ in 0..4 {
+            let (snap_p, snap_v) = (pos.clone(), vel.clone());
+            for (m, me) in swarm.iter().enumerate() {
+                if me.pinned != 0.0 {
+                    continue;
+                }
+                let (mut dp, mut dv) = ([0.0f32; 2], [0.0f32; 2]);
+                for j in 0..n {
+                    let d = [snap_p[m][0] - snap_p[j][0], snap_p[m][1] - snap_p[j][1]];
+                    let dist = d[0].hypot(d[1]);
+                    if j != m && dist > 0.0 && dist < 2.0 * p.radius {
+                        let nij = [d[0] / dist, d[1] / dist];
+                        let share = if swarm[j].pinned != 0.0 { 1.0 } else { 0.5 };
+                        let over = share * (2.0 * p.radius - dist);
+                        dp = [dp[0] + over * nij[0], dp[1] + over * nij[1]];
+                        let approach = (snap_v[m][0] - snap_v[j][0]) * nij[0]
+                            + (snap_v[m][1] - snap_v[j][1]) * nij[1];
+                        if approach < 0.0 {
+                            dv = [
+                                dv[0] - share * approach * nij[0],
+                                dv[1] - share * approach * nij[1],
+                            ];
+                        }
+                    }
+                }
+                let mut q = [snap_p[m][0] + dp[0], snap_p[m][1] + dp[1]];
+                let mut w = [snap_v[m][0] + dv[0], snap_v[m][1] + dv[1]];
+                let (lo, hi) = (
+                    [p.radius, p.radius],
+                    [p.length - p.radius, p.height - p.radius],
+                );
+                for k in 0..2 {
+                    if q[k] < lo[k] {
+                        q[k] = lo[k];
+                        w[k] = w[k].max(0.0);
+                    }
+                    if q[k] > hi[k] {
+                        q[k] = hi[k];
+                        w[k] = w[k].min(0.0);
+                    }
+                }
+                pos[m] = q;
+                vel[m] = w;
+            }
+        }
+        for (m, me) in swarm.iter().enumerate() {
+            out.push(GpuMember {
+                pos: pos[m],
+                vel: vel[m],
+                pinned: me.pinned,
+                pad: [0.0; 3],
+            });
+        }
+        let mut bx = [pos[0][0], pos[0][0], pos[0][1], pos[0][1]];
+        for q in &pos[1..] {
+            bx = [
+                bx[0].min(q[0]),
+                bx[1].max(q[0]),
+                bx[2].min(q[1]),
+                bx[3].max(q[1]),
+            ];
+        }
+        boxes.push(bx);
+    }
+    (out, diags, boxes)
 }

@@ -57,6 +57,10 @@ pub enum Stage {
     PressureSolve,
     Project,
     Diagnostics,
+    /// Members painted into the body field.
+    PaintBodies,
+    /// Members sampled, forced and moved (reads the projected velocity, `UOut`/`VOut`).
+    MoveMembers,
 }
 
 /// Pressure iterations per substep: the fast solver is exact for the channel's matrix.
@@ -772,6 +776,8 @@ impl FluidBatch {
             Stage::PressureSolve => p.solve.record(pass, b, o, d),
             Stage::Project => p.project.record(pass, b, o, d),
             Stage::Diagnostics => p.diagnostics.record(pass, b, o, d),
+            Stage::PaintBodies => p.members.record_paint(pass, b, o, d),
+            Stage::MoveMembers => p.members.record_move(pass, b, o, d),
         }
     }
 

@@ -9,6 +9,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use fluxswarm_gpu::config::Resolved;
 use fluxswarm_gpu::gpu::GpuContext;
+use fluxswarm_gpu::output::frame::MemberMark;
 use fluxswarm_gpu::output::{frame, npy, run_dir};
 use fluxswarm_gpu::sim::{EnvHealth, FluidBatch, fluid::PRESSURE_ITERATIONS_PER_SUBSTEP};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -37,9 +38,15 @@ pub struct SimulateArgs {
     /// Environment whose fields are written.
     #[arg(long, default_value_t = 0)]
     pub env: usize,
+    /// Run the flow without the swarm (same as `--set swarm.count=0`).
+    #[arg(long)]
+    pub no_swarm: bool,
 }
 
-pub fn run(args: SimulateArgs) -> anyhow::Result<()> {
+pub fn run(mut args: SimulateArgs) -> anyhow::Result<()> {
+    if args.no_swarm {
+        args.common.sets.push("swarm.count=0".into());
+    }
     let resolved = args.common.load()?;
     if !(args.seconds.is_finite() && args.seconds > 0.0) {
         bail!(
@@ -198,6 +205,21 @@ impl<'a> Writer<'a> {
         let ux = fields.ux_cells();
         let (nx, ny) = (fields.nx, fields.ny);
         if frame_due {
+            let n = batch.n_members();
+            let f_max = self.resolved.config.swarm.max_thrust_n;
+            let marks: Vec<MemberMark> = batch
+                .members()
+                .iter()
+                .zip(batch.member_forces())
+                .skip(e * n)
+                .take(n)
+                .map(|(m, d)| MemberMark {
+                    x_m: m.pos[0] as f64,
+                    y_m: m.pos[1] as f64,
+                    force_x: d.prop[0] as f64 / f_max,
+                    force_y: d.prop[1] as f64 / f_max,
+                })
+                .collect();
             let d = &self.resolved.config.domain;
             let path = self
                 .out
@@ -218,6 +240,8 @@ impl<'a> Writer<'a> {
                     time_s: batch.time_s(e),
                     inlet_u_m_s: batch.inlet_u(e),
                     env: e,
+                    members: &marks,
+                    radius_m: self.resolved.config.swarm.radius_m,
                 },
             )
             .with_context(|| format!("writing {}", path.display()))?;

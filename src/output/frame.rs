@@ -14,6 +14,16 @@ use super::text::{draw_text, text_width};
 const BLACK: Rgb<u8> = Rgb([0, 0, 0]);
 const WHITE: Rgb<u8> = Rgb([255, 255, 255]);
 const GREY: Rgb<u8> = Rgb([90, 90, 90]);
+const RED: Rgb<u8> = Rgb([230, 40, 40]);
+
+/// A member drawn on a frame: its centre (m) and applied force as a fraction of F_max.
+#[derive(Debug, Clone, Copy)]
+pub struct MemberMark {
+    pub x_m: f64,
+    pub y_m: f64,
+    pub force_x: f64,
+    pub force_y: f64,
+}
 
 /// What a frame shows.
 pub struct FrameSpec<'a> {
@@ -32,6 +42,10 @@ pub struct FrameSpec<'a> {
     pub time_s: f64,
     pub inlet_u_m_s: f64,
     pub env: usize,
+    /// Members (circles to scale, so ellipses under the y exaggeration), their centre of mass
+    /// (a black dot) and their forces (arrows, 30 px at F_max).
+    pub members: &'a [MemberMark],
+    pub radius_m: f64,
 }
 
 /// Field area width in pixels (at least one pixel per cell column).
@@ -75,6 +89,71 @@ pub fn render(spec: &FrameSpec) -> RgbImage {
             let lo = at(a, j0) * (1.0 - tx) + at(b, j0) * tx;
             let hi = at(a, j1) * (1.0 - tx) + at(b, j1) * tx;
             img.put_pixel(LEFT + px, TOP + py, colour(lo * (1.0 - ty) + hi * ty));
+        }
+    }
+    // Members, their centre of mass and their forces.
+    let to_px = |x: f64, y: f64| {
+        let px = LEFT as f64 + (x / dx - i0 as f64) / cols as f64 * width as f64;
+        let py = TOP as f64 + (1.0 - y / spec.height_m) * height as f64;
+        (px, py)
+    };
+    let (rx, ry) = (
+        spec.radius_m / dx / cols as f64 * width as f64,
+        spec.radius_m / spec.height_m * height as f64,
+    );
+    let clip = |img: &mut RgbImage, x: f64, y: f64, c: Rgb<u8>| {
+        let (xi, yi) = (x.round() as i64, y.round() as i64);
+        if xi >= LEFT as i64
+            && xi < (LEFT + width) as i64
+            && yi >= TOP as i64
+            && yi < (TOP + height) as i64
+        {
+            img.put_pixel(xi as u32, yi as u32, c);
+        }
+    };
+    for m in spec.members {
+        let (cx, cy) = to_px(m.x_m, m.y_m);
+        for k in 0..360 {
+            let t = k as f64 * std::f64::consts::PI / 180.0;
+            clip(&mut img, cx + rx * t.cos(), cy + ry * t.sin(), WHITE);
+            clip(
+                &mut img,
+                cx + (rx + 1.0) * t.cos(),
+                cy + (ry + 1.0) * t.sin(),
+                BLACK,
+            );
+        }
+        let (fx, fy) = (m.force_x * 30.0, -m.force_y * 30.0);
+        let len = fx.hypot(fy);
+        if len > 0.5 {
+            let steps = (len * 2.0) as usize + 1;
+            for s in 0..=steps {
+                let t = s as f64 / steps as f64;
+                clip(&mut img, cx + fx * t, cy + fy * t, RED);
+            }
+            let (ux, uy) = (fx / len, fy / len);
+            for s in 0..=8 {
+                let t = s as f64 * 0.6;
+                for side in [-1.0, 1.0] {
+                    let (hx, hy) = (-ux * 0.8 + side * -uy * 0.6, -uy * 0.8 + side * ux * 0.6);
+                    clip(&mut img, cx + fx + hx * t, cy + fy + hy * t, RED);
+                }
+            }
+        }
+    }
+    if !spec.members.is_empty() {
+        let n = spec.members.len() as f64;
+        let (mx, my) = spec
+            .members
+            .iter()
+            .fold((0.0, 0.0), |a, m| (a.0 + m.x_m / n, a.1 + m.y_m / n));
+        let (cx, cy) = to_px(mx, my);
+        for ddx in -2..=2 {
+            for ddy in -2..=2 {
+                if ddx * ddx + ddy * ddy <= 5 {
+                    clip(&mut img, cx + ddx as f64, cy + ddy as f64, BLACK);
+                }
+            }
         }
     }
     // Frame, x ticks every 10 mm (5 mm for short spans), y labels.
@@ -325,7 +404,22 @@ mod tests {
             time_s: 0.1,
             inlet_u_m_s: 0.4,
             env: 0,
+            members: &[MemberMark {
+                x_m: 0.05,
+                y_m: 0.001,
+                force_x: -1.0,
+                force_y: 0.0,
+            }],
+            radius_m: 250e-6,
         });
+        // The member's outline is drawn at its radius, to scale in x.
+        let cx = LEFT as f64 + (0.05 / 1e-3 - 20.0) / 60.0 * FIELD_WIDTH as f64;
+        let rx = 0.25 / 60.0 * FIELD_WIDTH as f64;
+        let edge = img.get_pixel((cx + rx).round() as u32, TOP + 100);
+        assert!(
+            edge == &WHITE || edge == &BLACK,
+            "outline at the radius: {edge:?}"
+        );
         assert_eq!(img.width(), LEFT + FIELD_WIDTH + RIGHT);
         // Bottom row of the field is dark (low), top row bright (high) in viridis.
         let low = img.get_pixel(LEFT + 10, TOP + img.height() - TOP - BOTTOM - 1);

@@ -60,7 +60,18 @@ pub struct Config {
     pub time: Time,
     pub inlet: Inlet,
     pub swarm: Swarm,
+    pub env: EnvConfig,
     pub solver: Solver,
+}
+
+/// Episode settings of the environment (SPEC section 3).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct EnvConfig {
+    /// Control steps after which an episode is truncated.
+    pub max_steps: u32,
+    /// Half-width of the uniform jitter added to each member's start, in x and y (m).
+    pub position_jitter_m: f64,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -281,6 +292,14 @@ impl Config {
         at_least("time.substeps", self.time.substeps, 1)?;
         positive("inlet.period_s", self.inlet.period_s)?;
         self.validate_swarm()?;
+        at_least("env.max_steps", self.env.max_steps, 1)?;
+        if !(self.env.position_jitter_m >= 0.0 && self.env.position_jitter_m.is_finite()) {
+            return Err(range(
+                "env.position_jitter_m",
+                self.env.position_jitter_m,
+                "must be a non-negative, finite length".into(),
+            ));
+        }
 
         let waveform = match &self.inlet.csv {
             Some(path) => Waveform::from_csv(path, self.inlet.period_s)?,

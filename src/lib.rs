@@ -6,6 +6,7 @@
 //! with `config` and `waveform` beside them.
 
 pub mod config;
+pub mod env;
 pub mod gpu;
 pub mod output;
 pub mod sim;

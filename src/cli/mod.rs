@@ -3,6 +3,7 @@
 mod bench;
 mod common;
 mod info;
+mod rollout;
 mod simulate;
 
 use clap::{Parser, Subcommand};
@@ -26,6 +27,8 @@ pub enum Command {
     Simulate(simulate::SimulateArgs),
     /// Measure environment steps per second per batch size at the configured grid.
     Bench(bench::BenchArgs),
+    /// Run a baseline policy for K episodes and write episodes, swarm and trajectory CSVs.
+    Rollout(rollout::RolloutArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -33,5 +36,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Info(a) => info::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Rollout(a) => rollout::run(a),
     }
 }

@@ -294,9 +294,11 @@ impl FluidBatch {
             time_s: vec![0.0; n_env],
             phase_s: vec![0.0; n_env],
             n_members,
+            last_members: (0..n_env)
+                .flat_map(|_| initial_members.iter().copied())
+                .collect(),
+            last_diag: vec![GpuMemberDiag::default(); n_env * n_members],
             initial_members,
-            last_members: Vec::new(),
-            last_diag: Vec::new(),
             steps: 0,
         };
         for e in 0..n_env {
@@ -477,6 +479,11 @@ impl FluidBatch {
     /// Time of environment e since its reset (s).
     pub fn time_s(&self, e: usize) -> f64 {
         self.time_s[e]
+    }
+
+    /// Inlet centreline velocity of environment e `dt` seconds from now (m/s).
+    pub fn inlet_u_after(&self, e: usize, dt: f64) -> f64 {
+        self.waveform.at(self.time_s[e] + self.phase_s[e] + dt)
     }
 
     /// Inlet centreline velocity of environment e now (m/s).

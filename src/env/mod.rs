@@ -1,0 +1,355 @@
+//! The batched swarm environment of SPEC section 3: E channels with N members each, advanced
+//! one control step per `step(actions [E][N][2])`, returning observations [E][N][8], rewards
+//! [E][N][3] (progress, energy, smoothness), separate terminated/truncated flags, the final
+//! observation of every episode that ended (environments auto-reset independently) and the
+//! finished episodes' metrics. One read-back per control step (health + members + forces).
+//!
+//! Observation of member i: ((x - x_mid) / half, (y - H/2) / (H/2), v / U_peak, p_k / 1 kPa)
+//! with x_mid, half the centre and half-width of the analysis region (50 mm, 30 mm in the
+//! paper), U_peak the waveform's peak |U| (0.4 m/s) and p_k the four pressure samples.
+
+pub mod policy;
+pub mod reward;
+pub mod rng;
+
+use std::fmt;
+
+use crate::config::Resolved;
+use crate::gpu::GpuContext;
+use crate::gpu::params::{GpuMember, GpuMemberDiag};
+use crate::sim::{FluidBatch, SimError};
+use rng::Rng;
+
+/// Values per observation, per reward.
+pub const OBS_DIM: usize = 8;
+pub const N_OBJECTIVES: usize = 3;
+/// Pressure scale of the observation (Pa).
+pub const PRESSURE_SCALE_PA: f64 = 1000.0;
+
+/// How an episode ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    Success,
+    Failure,
+    Timeout,
+    Diverged,
+}
+
+impl fmt::Display for Outcome {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Outcome::Success => "success",
+            Outcome::Failure => "failure",
+            Outcome::Timeout => "timeout",
+            Outcome::Diverged => "diverged",
+        })
+    }
+}
+
+/// Metrics of a finished episode (SPEC section 3, the columns of `episodes.csv`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EpisodeSummary {
+    pub env: usize,
+    pub episode: u64,
+    pub steps: u32,
+    pub outcome: Outcome,
+    /// Sum over steps of the agent-mean progress reward.
+    pub progress: f64,
+    /// Mean over steps of the agent-mean energy and smoothness rewards.
+    pub energy: f64,
+    pub smoothness: f64,
+    pub progress_mean: f64,
+    pub energy_sum: f64,
+    pub smoothness_sum: f64,
+    /// Sum over steps of the scalar reward (agent mean of the three columns).
+    pub scalar_return: f64,
+    pub final_x_com_mm: f64,
+}
+
+/// What `step` returns.
+#[derive(Debug, Clone)]
+pub struct StepOutput {
+    /// [E][N][8]; for an environment that just ended, the first observation of its new episode.
+    pub obs: Vec<f32>,
+    /// [E][N][3]; zero for a diverged environment (its state is garbage).
+    pub rewards: Vec<f32>,
+    pub terminated: Vec<bool>,
+    pub truncated: Vec<bool>,
+    /// Outcome `diverged` (never bootstrapped); neither terminated nor truncated is set.
+    pub diverged: Vec<bool>,
+    /// [N][8] final observation of each environment whose episode ended this step.
+    pub final_obs: Vec<Option<Vec<f32>>>,
+    /// Metrics of each episode that ended this step.
+    pub ended: Vec<Option<EpisodeSummary>>,
+    /// Members and their forces at the end of this step, before any reset, [E][N].
+    pub members: Vec<GpuMember>,
+    pub forces: Vec<GpuMemberDiag>,
+    /// Episode index and step within it (after this step) of each environment, before reset.
+    pub episode: Vec<u64>,
+    pub episode_step: Vec<u32>,
+}
+
+#[derive(Debug, Clone)]
+struct Episode {
+    index: u64,
+    steps: u32,
+    /// Member centres at the previous control step (m).
+    positions: Vec<[f64; 2]>,
+    previous_action: Vec<Option<[f64; 2]>>,
+    progress_sum: f64,
+    energy_sum: f64,
+    smoothness_sum: f64,
+}
+
+/// E swarm environments on one GPU batch.
+pub struct SwarmEnv {
+    batch: FluidBatch,
+    resolved: Resolved,
+    n_env: usize,
+    n: usize,
+    rng: Rng,
+    episodes: Vec<Episode>,
+}
+
+impl SwarmEnv {
+    pub fn new(
+        ctx: &GpuContext,
+        resolved: &Resolved,
+        n_env: usize,
+        seed: u64,
+    ) -> Result<Self, SimError> {
+        let batch = FluidBatch::new(ctx, resolved, n_env)?;
+        let n = batch.n_members();
+        Ok(Self {
+            batch,
+            resolved: resolved.clone(),
+            n_env,
+            n,
+            rng: Rng::new(seed),
+            episodes: Vec::new(),
+        })
+    }
+
+    pub fn n_env(&self) -> usize {
+        self.n_env
+    }
+
+    pub fn n_agents(&self) -> usize {
+        self.n
+    }
+
+    pub fn batch(&self) -> &FluidBatch {
+        &self.batch
+    }
+
+    /// The batch, for tests and tools that need to alter the fluid state.
+    pub fn batch_mut(&mut self) -> &mut FluidBatch {
+        &mut self.batch
+    }
+
+    /// Resets every environment; returns the observations [E][N][8].
+    pub fn reset(&mut self) -> Result<Vec<f32>, SimError> {
+        self.episodes.clear();
+        let mut obs = Vec::with_capacity(self.n_env * self.n * OBS_DIM);
+        for e in 0..self.n_env {
+            obs.extend(self.reset_env(e, 0)?);
+        }
+        Ok(obs)
+    }
+
+    /// Starts episode `index` in environment e: optional random phase and position jitter.
+    fn reset_env(&mut self, e: usize, index: u64) -> Result<Vec<f32>, SimError> {
+        let c = &self.resolved.config;
+        let phase = if c.inlet.random_phase {
+            self.rng.range(0.0, c.inlet.period_s)
+        } else {
+            0.0
+        };
+        self.batch.reset_env_with_phase(e, phase)?;
+        let jitter = c.env.position_jitter_m;
+        let r = c.swarm.radius_m;
+        let (length, height) = (c.domain.length_m, c.domain.height_m);
+        let mut members: Vec<GpuMember> = Vec::with_capacity(self.n);
+        for (k, p) in c.swarm.initial_positions(height).iter().enumerate() {
+            let (mut x, mut y) = (p[0], p[1]);
+            if jitter > 0.0 {
+                x = (x + self.rng.range(-jitter, jitter)).clamp(r, length - r);
+                y = (y + self.rng.range(-jitter, jitter)).clamp(r, height - r);
+            }
+            members.push(GpuMember {
+                pos: [x as f32, y as f32],
+                vel: [0.0; 2],
+                pinned: c.swarm.pinned.contains(&(k as u32)) as u32 as f32,
+                pad: [0.0; 3],
+            });
+        }
+        self.batch.set_members(e, &members)?;
+        let episode = Episode {
+            index,
+            steps: 0,
+            positions: members
+                .iter()
+                .map(|m| [m.pos[0] as f64, m.pos[1] as f64])
+                .collect(),
+            previous_action: vec![None; self.n],
+            progress_sum: 0.0,
+            energy_sum: 0.0,
+            smoothness_sum: 0.0,
+        };
+        if e < self.episodes.len() {
+            self.episodes[e] = episode;
+        } else {
+            self.episodes.push(episode);
+        }
+        // The initial pressure is Poiseuille's linear profile: sample it analytically.
+        let u0 = self.batch.waveform().at(phase);
+        let grad = 8.0 * c.fluid.viscosity_pa_s * u0 / (height * height);
+        let rs = r + 2.0 * c.dx();
+        let p_at = |x: f64| {
+            let xc = x.clamp(0.5 * c.dx(), length - 0.5 * c.dx());
+            (grad * (length - xc)) as f32
+        };
+        Ok(members
+            .iter()
+            .flat_map(|m| {
+                let x = m.pos[0] as f64;
+                let p = [p_at(x + rs), p_at(x), p_at(x - rs), p_at(x)];
+                self.observe(*m, p)
+            })
+            .collect())
+    }
+
+    /// The scaled 8-vector of one member.
+    fn observe(&self, m: GpuMember, p: [f32; 4]) -> [f32; OBS_DIM] {
+        let c = &self.resolved.config;
+        let mid = 0.5 * (c.domain.success_x_m + c.domain.failure_x_m);
+        let half = 0.5 * (c.domain.failure_x_m - c.domain.success_x_m);
+        let h2 = 0.5 * c.domain.height_m;
+        let v = self.resolved.waveform.peak_abs().max(1e-12);
+        let ps = PRESSURE_SCALE_PA;
+        [
+            ((m.pos[0] as f64 - mid) / half) as f32,
+            ((m.pos[1] as f64 - h2) / h2) as f32,
+            (m.vel[0] as f64 / v) as f32,
+            (m.vel[1] as f64 / v) as f32,
+            (p[0] as f64 / ps) as f32,
+            (p[1] as f64 / ps) as f32,
+            (p[2] as f64 / ps) as f32,
+            (p[3] as f64 / ps) as f32,
+        ]
+    }
+
+    /// Advances every environment by one control step with raw actions [E][N][2].
+    pub fn step(&mut self, ctx: &GpuContext, actions: &[[f32; 2]]) -> Result<StepOutput, SimError> {
+        assert_eq!(actions.len(), self.n_env * self.n, "one action per agent");
+        assert_eq!(self.episodes.len(), self.n_env, "reset before step");
+        self.batch.set_all_actions(actions);
+        let health = self.batch.step(ctx)?;
+        let members = self.batch.members().to_vec();
+        let forces = self.batch.member_forces().to_vec();
+        let c = self.resolved.config.clone();
+        let (xs, xf) = (c.domain.success_x_m, c.domain.failure_x_m);
+        let f_max = c.swarm.max_thrust_n;
+        let n = self.n;
+        let mut out = StepOutput {
+            obs: Vec::with_capacity(self.n_env * n * OBS_DIM),
+            rewards: vec![0.0; self.n_env * n * N_OBJECTIVES],
+            terminated: vec![false; self.n_env],
+            truncated: vec![false; self.n_env],
+            diverged: vec![false; self.n_env],
+            final_obs: vec![None; self.n_env],
+            ended: vec![None; self.n_env],
+            members: members.clone(),
+            forces: forces.clone(),
+            episode: vec![0; self.n_env],
+            episode_step: vec![0; self.n_env],
+        };
+        for e in 0..self.n_env {
+            let ms = &members[e * n..(e + 1) * n];
+            let fs = &forces[e * n..(e + 1) * n];
+            let now: Vec<[f64; 2]> = ms
+                .iter()
+                .map(|m| [m.pos[0] as f64, m.pos[1] as f64])
+                .collect();
+            let finite = now.iter().all(|p| p[0].is_finite() && p[1].is_finite());
+            let diverged = health[e].diverged() || !finite;
+            let ep = &mut self.episodes[e];
+            ep.steps += 1;
+            out.episode[e] = ep.index;
+            out.episode_step[e] = ep.steps;
+            let mut mean = [0.0f64; 3];
+            if !diverged {
+                for i in 0..n {
+                    let a = [actions[e * n + i][0] as f64, actions[e * n + i][1] as f64];
+                    let scale = f_max / a[0].hypot(a[1]).max(1.0);
+                    let force = [scale * a[0], scale * a[1]];
+                    let dr = [
+                        now[i][0] - ep.positions[i][0],
+                        now[i][1] - ep.positions[i][1],
+                    ];
+                    let r = [
+                        reward::progress(ep.positions[i][0], now[i][0], xs, xf),
+                        reward::energy(force, dr, f_max),
+                        reward::smoothness(ep.previous_action[i], a),
+                    ];
+                    for k in 0..3 {
+                        out.rewards[(e * n + i) * 3 + k] = r[k] as f32;
+                        mean[k] += r[k] / n as f64;
+                    }
+                    ep.previous_action[i] = Some(a);
+                }
+                ep.progress_sum += mean[0];
+                ep.energy_sum += mean[1];
+                ep.smoothness_sum += mean[2];
+                ep.positions = now.clone();
+            }
+            let x_com = now.iter().map(|p| p[0]).sum::<f64>() / n.max(1) as f64;
+            let success = x_com < xs;
+            let failure = now.iter().any(|p| p[0] > xf);
+            let outcome = if diverged {
+                Some(Outcome::Diverged)
+            } else if success {
+                Some(Outcome::Success)
+            } else if failure {
+                Some(Outcome::Failure)
+            } else if ep.steps >= c.env.max_steps {
+                Some(Outcome::Timeout)
+            } else {
+                None
+            };
+            out.diverged[e] = diverged;
+            out.terminated[e] = matches!(outcome, Some(Outcome::Success | Outcome::Failure));
+            out.truncated[e] = outcome == Some(Outcome::Timeout);
+            let obs_e: Vec<f32> = ms
+                .iter()
+                .zip(fs)
+                .flat_map(|(m, d)| self.observe(*m, d.p))
+                .collect();
+            match outcome {
+                None => out.obs.extend(obs_e),
+                Some(outcome) => {
+                    let ep = &self.episodes[e];
+                    let steps = ep.steps as f64;
+                    out.ended[e] = Some(EpisodeSummary {
+                        env: e,
+                        episode: ep.index,
+                        steps: ep.steps,
+                        outcome,
+                        progress: ep.progress_sum,
+                        energy: ep.energy_sum / steps,
+                        smoothness: ep.smoothness_sum / steps,
+                        progress_mean: ep.progress_sum / steps,
+                        energy_sum: ep.energy_sum,
+                        smoothness_sum: ep.smoothness_sum,
+                        scalar_return: ep.progress_sum + ep.energy_sum + ep.smoothness_sum,
+                        final_x_com_mm: x_com * 1e3,
+                    });
+                    out.final_obs[e] = Some(obs_e);
+                    let next = ep.index + 1;
+                    out.obs.extend(self.reset_env(e, next)?);
+                }
+            }
+        }
+        Ok(out)
+    }
+}

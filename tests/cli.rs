@@ -169,3 +169,80 @@ fn info_reports_adapter_limits_and_self_check() {
         assert!(t.contains(part), "missing {part}: {t}");
     }
 }
+
+#[test]
+fn rollout_writes_episodes_swarm_and_trajectories() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ro");
+    let args = [
+        "rollout",
+        "--policy",
+        "upstream",
+        "--envs",
+        "2",
+        "--episodes",
+        "3",
+        "--frames-every",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "domain.nx=300",
+        "--set",
+        "domain.length_m=0.03",
+        "--set",
+        "domain.success_x_m=0.006",
+        "--set",
+        "domain.failure_x_m=0.024",
+        "--set",
+        "swarm.count=2",
+        "--set",
+        "swarm.grid_rows=1",
+        "--set",
+        "swarm.grid_centre_x_m=0.015",
+        "--set",
+        "env.max_steps=3",
+    ];
+    let o = bin(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    let read = |name: &str| std::fs::read_to_string(out.join(name)).unwrap();
+    let episodes = read("episodes.csv");
+    let lines: Vec<&str> = episodes.lines().collect();
+    assert_eq!(
+        lines[0],
+        "env,episode,steps,outcome,progress,energy,smoothness,progress_mean,energy_sum,smoothness_sum,scalar_return,final_x_com_mm"
+    );
+    // Both environments truncate together after 3 steps, so 4 episodes finish (>= 3).
+    assert_eq!(lines.len(), 1 + 4);
+    assert!(
+        lines[1].starts_with("0,0,3,timeout,") && lines[2].starts_with("1,0,3,timeout,"),
+        "{episodes}"
+    );
+    let swarm = read("swarm.csv");
+    assert!(swarm.starts_with(
+        "env,episode,step,t_s,inlet_u_m_s,x_com_mm,y_com_mm,sigma_x_mm,sigma_y_mm,r_g_mm\n"
+    ));
+    // Steps 0..=3 of two episodes in each of two environments.
+    assert_eq!(swarm.lines().count(), 1 + 2 * 2 * 4, "{swarm}");
+    let traj = read("trajectories.csv");
+    assert!(traj.starts_with("env,episode,step,member,x_mm,y_mm,vx_mm_s,vy_mm_s,ax,ay,f_prop_x_nN,f_prop_y_nN,f_hydro_x_nN,f_hydro_y_nN,f_drag_x_nN,f_drag_y_nN,f_contact_x_nN,f_contact_y_nN\n"));
+    assert_eq!(traj.lines().count(), 1 + 2 * 2 * 4 * 2);
+    let row: Vec<&str> = traj
+        .lines()
+        .find(|l| l.starts_with("0,0,1,0,"))
+        .unwrap()
+        .split(',')
+        .collect();
+    assert_eq!(
+        (row[8], row[9], row[10]),
+        ("-1.00000", "0.00000", "-850.000"),
+        "upstream thrust"
+    );
+    for name in [
+        "env0_ep0000_s000000.png",
+        "env0_ep0000_s000002.png",
+        "env0_ep0001_s000000.png",
+    ] {
+        assert!(out.join("frames").join(name).exists(), "{name}");
+    }
+}

@@ -221,3 +221,61 @@ fn too_many_cells_across() {
         &["`domain.ny` = 65", "above 64"],
     );
 }
+
+#[test]
+fn bad_swarms() {
+    assert_contains(
+        &err(&["swarm.count=65"]),
+        &["`swarm.count` = 65", "above 64"],
+    );
+    assert_contains(
+        &err(&["swarm.count=15"]),
+        &["`swarm.count` = 15", "multiple of swarm.grid_rows = 2"],
+    );
+    assert_contains(
+        &err(&["swarm.radius_m=0.0011"]),
+        &["`swarm.radius_m`", "does not fit the channel height"],
+    );
+    assert_contains(
+        &err(&["swarm.grid_spacing_m=0.0004"]),
+        &["members 0 and 1", "overlap at reset"],
+    );
+    assert_contains(
+        &err(&["swarm.grid_centre_x_m=0.003"]),
+        &["member 0 at", "less than a radius from a wall or an end"],
+    );
+    assert_contains(
+        &err(&["swarm.pinned=[3, 16]"]),
+        &["`swarm.pinned` = 16", "not a member index (0..16)"],
+    );
+    assert_contains(
+        &err(&["swarm.layout=explicit", "swarm.positions_m=[[0.05, 0.001]]"]),
+        &[
+            "`swarm.positions_m` = 1 entries",
+            "one [x, y] per member (swarm.count = 16)",
+        ],
+    );
+    assert_contains(
+        &err(&["env.max_steps=0"]),
+        &["`env.max_steps` = 0", "at least 1"],
+    );
+    assert_contains(
+        &err(&["env.position_jitter_m=-1e-4"]),
+        &["`env.position_jitter_m`", "non-negative"],
+    );
+    // A valid explicit swarm and a swarm-free channel load.
+    Config::load(
+        None,
+        &[
+            "swarm.count=2".into(),
+            "swarm.layout=explicit".into(),
+            "swarm.positions_m=[[0.05, 0.0005], [0.051, 0.0015]]".into(),
+        ],
+    )
+    .unwrap();
+    Config::load(
+        None,
+        &["swarm.count=0".into(), "swarm.grid_centre_x_m=-1.0".into()],
+    )
+    .unwrap();
+}

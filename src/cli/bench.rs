@@ -1,7 +1,7 @@
 //! `fluxswarm-gpu bench`: environment steps per second per batch size at the configured grid,
 //! cell updates per second, dispatches and pressure iterations per substep, and the time split
-//! (by elimination: the advection passes alone, the pressure passes alone, the diagnostics with
-//! the health read-back alone). Prints a table and writes `bench.csv` (SPEC section 7).
+//! (by elimination: the advection passes alone, the pressure passes alone, the member kernels
+//! alone, the diagnostics with the health read-back alone). Prints a table and writes `bench.csv` (SPEC section 7).
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -37,6 +37,7 @@ struct Row {
     dispatches: u32,
     fluid_s: f64,
     pressure_s: f64,
+    swarm_s: f64,
     readback_s: f64,
     step_s: f64,
 }
@@ -95,6 +96,13 @@ fn bench_one(
             substeps,
         )?)
     })?;
+    let swarm_s = if batch.n_members() > 0 {
+        time_median(reps, || {
+            Ok(batch.run_stages(ctx, &[Stage::PaintBodies, Stage::MoveMembers], 0, substeps)?)
+        })?
+    } else {
+        0.0
+    };
     let readback_s = time_median(reps, || {
         batch.health(ctx)?;
         Ok(())
@@ -106,6 +114,7 @@ fn bench_one(
         dispatches: batch.dispatches_per_substep(),
         fluid_s,
         pressure_s,
+        swarm_s,
         readback_s,
         step_s,
     })
@@ -131,7 +140,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         c.domain.nx, c.domain.ny, c.time.substeps, c.solver.advection
     );
     println!(
-        "{:>5} {:>14} {:>12} {:>10} {:>9} {:>11} {:>11} {:>11} {:>11}",
+        "{:>5} {:>14} {:>12} {:>10} {:>9} {:>11} {:>11} {:>11} {:>11} {:>11}",
         "envs",
         "env_steps/s",
         "Mcell/s",
@@ -140,6 +149,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         "step_s",
         "fluid_s",
         "pressure_s",
+        "swarm_s",
         "readback_s"
     );
     let mut csv = std::fs::File::create(out.join("bench.csv")).context("creating bench.csv")?;
@@ -150,7 +160,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     for &envs in &args.envs {
         let r = bench_one(&ctx, &args, &resolved, envs)?;
         println!(
-            "{:>5} {:>14.2} {:>12.1} {:>10} {:>9} {:>11.4} {:>11.4} {:>11.4} {:>11.4}",
+            "{:>5} {:>14.2} {:>12.1} {:>10} {:>9} {:>11.4} {:>11.4} {:>11.4} {:>11.4} {:>11.4}",
             r.envs,
             r.env_steps_per_s,
             r.cell_updates_per_s / 1e6,
@@ -159,11 +169,12 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             r.step_s,
             r.fluid_s,
             r.pressure_s,
+            r.swarm_s,
             r.readback_s
         );
         writeln!(
             csv,
-            "{},{:.4},{:.4e},{},{},{:.6},{:.6},0,{:.6},\"{}\"",
+            "{},{:.4},{:.4e},{},{},{:.6},{:.6},{:.6},{:.6},\"{}\"",
             r.envs,
             r.env_steps_per_s,
             r.cell_updates_per_s,
@@ -171,6 +182,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             PRESSURE_ITERATIONS_PER_SUBSTEP,
             r.fluid_s,
             r.pressure_s,
+            r.swarm_s,
             r.readback_s,
             adapter.replace('"', "'")
         )?;

@@ -4,7 +4,6 @@
 
 mod common;
 
-use common::small_config;
 use fluxswarm_gpu::config::Resolved;
 use fluxswarm_gpu::env::policy::Baseline;
 use fluxswarm_gpu::env::rng::Rng;
@@ -13,18 +12,7 @@ use fluxswarm_gpu::gpu::kernels::FieldBinding;
 
 /// A 30 x 2 mm channel (success line 6 mm, failure line 24 mm) with members at `pos_mm`.
 fn config(pos_mm: &[[f64; 2]], extra: &[&str]) -> Resolved {
-    let list: Vec<String> = pos_mm
-        .iter()
-        .map(|p| format!("[{}, {}]", p[0] * 1e-3, p[1] * 1e-3))
-        .collect();
-    let mut sets = vec![
-        format!("swarm.count={}", pos_mm.len()),
-        "swarm.layout=explicit".to_string(),
-        format!("swarm.positions_m=[{}]", list.join(", ")),
-    ];
-    sets.extend(extra.iter().map(|s| s.to_string()));
-    let refs: Vec<&str> = sets.iter().map(String::as_str).collect();
-    small_config(300, 20, &refs)
+    common::swarm_config(300, 20, pos_mm, extra)
 }
 
 const MID: [[f64; 2]; 3] = [[14.0, 0.6], [15.0, 1.4], [16.0, 0.6]];

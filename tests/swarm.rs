@@ -23,18 +23,7 @@ fn swarm_batch(
     pos_mm: &[[f64; 2]],
     extra: &[&str],
 ) -> FluidBatch {
-    let list: Vec<String> = pos_mm
-        .iter()
-        .map(|p| format!("[{}, {}]", p[0] * 1e-3, p[1] * 1e-3))
-        .collect();
-    let mut sets = vec![
-        format!("swarm.count={}", pos_mm.len()),
-        "swarm.layout=explicit".to_string(),
-        format!("swarm.positions_m=[{}]", list.join(", ")),
-    ];
-    sets.extend(extra.iter().map(|s| s.to_string()));
-    let refs: Vec<&str> = sets.iter().map(String::as_str).collect();
-    FluidBatch::new(ctx, &small_config(nx, ny, &refs), envs).unwrap()
+    FluidBatch::new(ctx, &common::swarm_config(nx, ny, pos_mm, extra), envs).unwrap()
 }
 
 fn read_members(ctx: &GpuContext, b: &FluidBatch) -> (Vec<GpuMember>, Vec<GpuMemberDiag>) {

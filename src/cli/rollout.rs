@@ -313,16 +313,9 @@ fn write_frame(
     let marks: Vec<MemberMark> = ms
         .iter()
         .zip(fs)
-        .map(|(m, f)| MemberMark {
-            x_m: m.pos[0] as f64,
-            y_m: m.pos[1] as f64,
-            force_x: f.prop[0] as f64 / f_max,
-            force_y: f.prop[1] as f64 / f_max,
-        })
+        .map(|(m, f)| MemberMark::new(m.pos, f.prop, f_max))
         .collect();
-    let pts = resolved.waveform.points();
-    let hi = pts.iter().map(|p| p.1).fold(0.0, f64::max);
-    let lo = pts.iter().map(|p| p.1).fold(0.0, f64::min);
+    let (v_min, v_max) = frame::velocity_range(resolved.waveform.points());
     let path = out
         .join("frames")
         .join(format!("env0_ep{episode:04}_s{step:06}.png"));
@@ -336,8 +329,8 @@ fn write_frame(
             height_m: d.height_m,
             x_min_m: d.success_x_m,
             x_max_m: d.failure_x_m,
-            v_min: 1.5 * lo.min(-0.01 * hi),
-            v_max: 1.2 * hi.max(1e-6),
+            v_min,
+            v_max,
             time_s: step as f64 * resolved.config.time.control_dt_s,
             inlet_u_m_s: resolved
                 .waveform

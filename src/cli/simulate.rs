@@ -157,10 +157,7 @@ impl<'a> Writer<'a> {
             "step,t_s,inlet_u_m_s,max_div_per_s,flux_min_m2_s,flux_max_m2_s,pressure_iters,residual"
         )?;
         // Fixed colour range for comparable frames: the waveform's extremes with headroom.
-        let pts = resolved.waveform.points();
-        let hi = pts.iter().map(|p| p.1).fold(0.0, f64::max);
-        let lo = pts.iter().map(|p| p.1).fold(0.0, f64::min);
-        let v_range = (1.5 * lo.min(-0.01 * hi), 1.2 * hi.max(1e-6));
+        let v_range = frame::velocity_range(resolved.waveform.points());
         Ok(Self {
             out,
             args,
@@ -213,12 +210,7 @@ impl<'a> Writer<'a> {
                 .zip(batch.member_forces())
                 .skip(e * n)
                 .take(n)
-                .map(|(m, d)| MemberMark {
-                    x_m: m.pos[0] as f64,
-                    y_m: m.pos[1] as f64,
-                    force_x: d.prop[0] as f64 / f_max,
-                    force_y: d.prop[1] as f64 / f_max,
-                })
+                .map(|(m, d)| MemberMark::new(m.pos, d.prop, f_max))
                 .collect();
             let d = &self.resolved.config.domain;
             let path = self

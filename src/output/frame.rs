@@ -25,6 +25,26 @@ pub struct MemberMark {
     pub force_y: f64,
 }
 
+impl MemberMark {
+    /// A member at `pos` (m) with applied force `force` (N), for a thrust bound `f_max` (N).
+    pub fn new(pos: [f32; 2], force: [f32; 2], f_max: f64) -> Self {
+        Self {
+            x_m: pos[0] as f64,
+            y_m: pos[1] as f64,
+            force_x: force[0] as f64 / f_max,
+            force_y: force[1] as f64 / f_max,
+        }
+    }
+}
+
+/// The fixed colour range (m/s) of a run's frames: the inlet waveform's extremes with headroom
+/// (1.2 x the peak forward velocity, 1.5 x the strongest reversal, at least 1 % of the peak).
+pub fn velocity_range(points: &[(f64, f64)]) -> (f64, f64) {
+    let hi = points.iter().map(|p| p.1).fold(0.0, f64::max);
+    let lo = points.iter().map(|p| p.1).fold(0.0, f64::min);
+    (1.5 * lo.min(-0.01 * hi), 1.2 * hi.max(1e-6))
+}
+
 /// What a frame shows.
 pub struct FrameSpec<'a> {
     /// u_x at cell centres, [ny][nx] (m/s).

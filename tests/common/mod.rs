@@ -68,3 +68,19 @@ pub fn max_diff(a: &[f32], b: &[f32]) -> (f32, f32) {
     let m = b.iter().map(|y| y.abs()).fold(0.0, f32::max);
     (d, m)
 }
+
+/// `small_config` with members at explicit positions (mm) and extra overrides.
+pub fn swarm_config(nx: u32, ny: u32, pos_mm: &[[f64; 2]], extra: &[&str]) -> Resolved {
+    let list: Vec<String> = pos_mm
+        .iter()
+        .map(|p| format!("[{}, {}]", p[0] * 1e-3, p[1] * 1e-3))
+        .collect();
+    let mut sets = vec![
+        format!("swarm.count={}", pos_mm.len()),
+        "swarm.layout=explicit".to_string(),
+        format!("swarm.positions_m=[{}]", list.join(", ")),
+    ];
+    sets.extend(extra.iter().map(|s| s.to_string()));
+    let refs: Vec<&str> = sets.iter().map(String::as_str).collect();
+    small_config(nx, ny, &refs)
+}

@@ -8,6 +8,7 @@
 pub mod config;
 pub mod env;
 pub mod gpu;
+pub mod learn;
 pub mod output;
 pub mod sim;
 pub mod waveform;

@@ -1,8 +1,13 @@
 //! The learner's core (MOMAPPO with PCGrad, SPEC section 5), environment-agnostic: GAE per
 //! objective and agent with episode-end masking ([`gae`]), Gaussian policy log-probabilities
-//! and entropy ([`gaussian`]), and PCGrad gradient surgery ([`pcgrad`]). The networks, the
-//! optimiser and `train` build on these (issue 4, in progress).
+//! and entropy ([`gaussian`], and as candle tensors in [`nets`]), PCGrad gradient surgery
+//! ([`pcgrad`], applied to candle gradients by [`surgery`]), the clipped surrogate ([`ppo`]) and
+//! the actor and critic ([`nets`]). The rollout buffer, the update loop, checkpoints and `train`
+//! build on these (issue 4, in progress).
 
 pub mod gae;
 pub mod gaussian;
+pub mod nets;
 pub mod pcgrad;
+pub mod ppo;
+pub mod surgery;

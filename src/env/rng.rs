@@ -26,6 +26,23 @@ impl Rng {
     pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
         lo + (hi - lo) * self.uniform()
     }
+
+    /// Standard normal (Box-Muller, one draw per call).
+    pub fn normal(&mut self) -> f64 {
+        let u1 = 1.0 - self.uniform(); // (0, 1]
+        let u2 = self.uniform();
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+
+    /// A random permutation of 0..n (Fisher-Yates).
+    pub fn permutation(&mut self, n: usize) -> Vec<usize> {
+        let mut p: Vec<usize> = (0..n).collect();
+        for i in (1..n).rev() {
+            let j = (self.next_u64() % (i as u64 + 1)) as usize;
+            p.swap(i, j);
+        }
+        p
+    }
 }
 
 #[cfg(test)]
@@ -43,5 +60,15 @@ mod tests {
         assert_ne!(Rng::new(1).next_u64(), Rng::new(2).next_u64());
         let mean: f64 = (0..10000).map(|_| a.range(-1.0, 1.0)).sum::<f64>() / 10000.0;
         assert!(mean.abs() < 0.03);
+        let z: Vec<f64> = (0..20000).map(|_| a.normal()).collect();
+        let m = z.iter().sum::<f64>() / z.len() as f64;
+        let v = z.iter().map(|x| (x - m).powi(2)).sum::<f64>() / z.len() as f64;
+        assert!(
+            m.abs() < 0.03 && (v - 1.0).abs() < 0.05,
+            "mean {m}, variance {v}"
+        );
+        let mut p = a.permutation(10);
+        p.sort();
+        assert_eq!(p, (0..10).collect::<Vec<_>>());
     }
 }

@@ -5,8 +5,10 @@
 //! the actor and critic ([`nets`]). The rollout buffer, the update loop, checkpoints and `train`
 //! build on these (issue 4, in progress).
 
+pub mod env;
 pub mod gae;
 pub mod gaussian;
+pub mod mappo;
 pub mod nets;
 pub mod pcgrad;
 pub mod ppo;

@@ -1,0 +1,380 @@
+//! MOMAPPO with PCGrad (SPEC section 5): rollouts of T steps x E environments, GAE per
+//! objective and agent, the joint PPO ratio, one clipped surrogate per objective, PCGrad over
+//! the three actor gradients (one backward pass each; a random projection order per update),
+//! plus the entropy bonus's gradient; the critic learns from 0.5 x the sum of its three heads'
+//! MSE. The actor's and the critic's gradients are clipped separately; Adam for both.
+//! Samples are joint transitions (one environment at one step); each epoch splits them into
+//! `minibatches` random minibatches.
+
+use candle_core::{DType, Device, Tensor, Var};
+use candle_nn::{AdamW, Optimizer, ParamsAdamW, VarBuilder, VarMap};
+
+use super::env::MultiAgentEnv;
+use super::gae::{Rollout, gae};
+use super::nets::{Actor, Critic, gaussian_entropy, gaussian_log_prob};
+use super::pcgrad::{average, pcgrad};
+use super::ppo::clipped_surrogate;
+use super::surgery::{flatten, named_vars, unflatten};
+use crate::env::rng::Rng;
+
+/// Hyperparameters (SPEC section 5 defaults).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainConfig {
+    pub rollout_steps: usize,
+    pub epochs: usize,
+    pub minibatches: usize,
+    pub gamma: f32,
+    pub lambda: f32,
+    pub learning_rate: f64,
+    pub clip: f64,
+    pub entropy_coef: f64,
+    pub max_grad_norm: f64,
+    pub pcgrad: bool,
+    /// Normalise each objective's advantages to zero mean, unit variance per rollout.
+    pub normalize_advantages: bool,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        Self {
+            rollout_steps: 16,
+            epochs: 4,
+            minibatches: 16,
+            gamma: 0.95,
+            lambda: 0.95,
+            learning_rate: 1e-3,
+            clip: 0.2,
+            entropy_coef: 0.01,
+            max_grad_norm: 0.5,
+            pcgrad: true,
+            normalize_advantages: true,
+        }
+    }
+}
+
+/// What one update logs (the `updates.csv` columns it owns).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct UpdateStats {
+    /// Mean surrogate loss per objective (progress, energy, smoothness).
+    pub loss: [f64; 3],
+    pub value_loss: f64,
+    pub entropy: f64,
+    pub mean_log_std: f64,
+    /// Mean cosine between the objective gradients: (p,e), (p,s), (e,s).
+    pub cosine: [f64; 3],
+    /// Fraction of minibatches in which that pair conflicted.
+    pub conflict: [f64; 3],
+}
+
+pub struct Learner {
+    pub cfg: TrainConfig,
+    agents: usize,
+    obs_dim: usize,
+    map: VarMap,
+    actor: Actor,
+    critic: Critic,
+    actor_vars: Vec<(String, Var)>,
+    critic_vars: Vec<(String, Var)>,
+    opt_actor: AdamW,
+    opt_critic: AdamW,
+    rng: Rng,
+    dev: Device,
+}
+
+fn adam(vars: &[(String, Var)], lr: f64) -> candle_core::Result<AdamW> {
+    let params = ParamsAdamW {
+        lr,
+        weight_decay: 0.0,
+        ..Default::default()
+    };
+    AdamW::new(vars.iter().map(|v| v.1.clone()).collect(), params)
+}
+
+fn clip_norm(g: &mut [f32], max: f64) {
+    let norm = g.iter().map(|x| (*x as f64).powi(2)).sum::<f64>().sqrt();
+    if norm > max {
+        let s = (max / norm) as f32;
+        g.iter_mut().for_each(|x| *x *= s);
+    }
+}
+
+impl Learner {
+    pub fn new(agents: usize, obs_dim: usize, cfg: TrainConfig, seed: u64) -> anyhow::Result<Self> {
+        let dev = Device::Cpu;
+        let map = VarMap::new();
+        let vb = VarBuilder::from_varmap(&map, DType::F32, &dev);
+        let actor = Actor::new(vb.pp("actor"), obs_dim, 2)?;
+        let critic = Critic::new(vb.pp("critic"), agents, obs_dim)?;
+        let actor_vars = named_vars(&map, "actor");
+        let critic_vars = named_vars(&map, "critic");
+        let opt_actor = adam(&actor_vars, cfg.learning_rate)?;
+        let opt_critic = adam(&critic_vars, cfg.learning_rate)?;
+        Ok(Self {
+            cfg,
+            agents,
+            obs_dim,
+            map,
+            actor,
+            critic,
+            actor_vars,
+            critic_vars,
+            opt_actor,
+            opt_critic,
+            rng: Rng::new(seed),
+            dev,
+        })
+    }
+
+    pub fn var_map(&self) -> &VarMap {
+        &self.map
+    }
+
+    /// Sampled (or mean) raw actions [E][N] and joint log-probabilities [E] for obs [E][N][D].
+    pub fn act(
+        &mut self,
+        obs: &[f32],
+        deterministic: bool,
+    ) -> anyhow::Result<(Vec<[f32; 2]>, Vec<f32>)> {
+        let rows = obs.len() / self.obs_dim;
+        let x = Tensor::from_slice(obs, (rows, self.obs_dim), &self.dev)?;
+        let (mean, log_std) = self.actor.forward(&x)?;
+        let m: Vec<f32> = mean.flatten_all()?.to_vec1()?;
+        let s: Vec<f32> = log_std.exp()?.flatten_all()?.to_vec1()?;
+        let mut actions = Vec::with_capacity(rows);
+        for r in 0..rows {
+            let mut a = [0.0f32; 2];
+            for d in 0..2 {
+                let z = if deterministic {
+                    0.0
+                } else {
+                    self.rng.normal() as f32
+                };
+                a[d] = m[2 * r + d] + s[2 * r + d] * z;
+            }
+            actions.push(a);
+        }
+        let a = Tensor::from_slice(&actions.concat(), (rows, 2), &self.dev)?;
+        let lp: Vec<f32> = gaussian_log_prob(&a, &mean, &log_std)?
+            .reshape((rows / self.agents, self.agents))?
+            .sum(1)?
+            .to_vec1()?;
+        Ok((actions, lp))
+    }
+
+    /// Values [B][N][3] of joint states given as observations [B][N][D].
+    pub fn values(&self, obs: &[f32]) -> anyhow::Result<Vec<f32>> {
+        let b = obs.len() / (self.agents * self.obs_dim);
+        let x = Tensor::from_slice(obs, (b, self.agents * self.obs_dim), &self.dev)?;
+        Ok(self
+            .critic
+            .forward(&x)?
+            .transpose(1, 2)?
+            .contiguous()?
+            .flatten_all()?
+            .to_vec1()?)
+    }
+
+    /// Collects one rollout from `env` (continuing from `obs`) and updates the networks.
+    /// Returns the update's statistics and the metrics of the episodes that ended.
+    pub fn iterate(
+        &mut self,
+        env: &mut dyn MultiAgentEnv,
+        obs: &mut Vec<f32>,
+    ) -> anyhow::Result<(UpdateStats, Vec<[f64; 4]>)> {
+        let (t_len, ne, n, d) = (
+            self.cfg.rollout_steps,
+            env.n_env(),
+            self.agents,
+            self.obs_dim,
+        );
+        let per_env = n * 3;
+        let mut obs_buf = Vec::with_capacity(t_len * ne * n * d);
+        let mut act_buf: Vec<[f32; 2]> = Vec::with_capacity(t_len * ne * n);
+        let mut logp_buf = Vec::with_capacity(t_len * ne);
+        let mut values = Vec::with_capacity(t_len * ne * per_env);
+        let mut next_values = vec![0.0f32; t_len * ne * per_env];
+        let mut rewards = Vec::with_capacity(t_len * ne * per_env);
+        let (mut term, mut trunc, mut div) = (Vec::new(), Vec::new(), Vec::new());
+        let mut episodes = Vec::new();
+        let mut ended_prev = vec![false; ne];
+        for t in 0..t_len {
+            let (actions, logp) = self.act(obs, false)?;
+            let v = self.values(obs)?;
+            if t > 0 {
+                // V(s_t) bootstraps step t-1 where that episode went on.
+                for e in 0..ne {
+                    if !ended_prev[e] {
+                        let dst = ((t - 1) * ne + e) * per_env;
+                        next_values[dst..dst + per_env]
+                            .copy_from_slice(&v[e * per_env..(e + 1) * per_env]);
+                    }
+                }
+            }
+            obs_buf.extend_from_slice(obs);
+            act_buf.extend_from_slice(&actions);
+            logp_buf.extend(logp);
+            values.extend_from_slice(&v);
+            let tr = env.step(&actions)?;
+            rewards.extend_from_slice(&tr.rewards);
+            for (e, ended) in ended_prev.iter_mut().enumerate() {
+                *ended = tr.terminated[e] || tr.truncated[e] || tr.diverged[e];
+                if tr.truncated[e]
+                    && let Some(f) = &tr.final_obs[e]
+                {
+                    let vf = self.values(f)?;
+                    let dst = (t * ne + e) * per_env;
+                    next_values[dst..dst + per_env].copy_from_slice(&vf);
+                }
+                if let Some(ep) = tr.episodes[e] {
+                    episodes.push(ep);
+                }
+            }
+            term.extend_from_slice(&tr.terminated);
+            trunc.extend_from_slice(&tr.truncated);
+            div.extend_from_slice(&tr.diverged);
+            *obs = tr.obs;
+        }
+        let v_last = self.values(obs)?;
+        for e in 0..ne {
+            if !ended_prev[e] {
+                let dst = ((t_len - 1) * ne + e) * per_env;
+                next_values[dst..dst + per_env]
+                    .copy_from_slice(&v_last[e * per_env..(e + 1) * per_env]);
+            }
+        }
+        let (mut adv, returns) = gae(
+            &Rollout {
+                steps: t_len,
+                envs: ne,
+                agents: n,
+                objectives: 3,
+                rewards: &rewards,
+                values: &values,
+                next_values: &next_values,
+                terminated: &term,
+                truncated: &trunc,
+                diverged: &div,
+            },
+            self.cfg.gamma,
+            self.cfg.lambda,
+        );
+        if self.cfg.normalize_advantages {
+            for k in 0..3 {
+                let xs: Vec<f32> = adv.iter().skip(k).step_by(3).copied().collect();
+                let m = xs.iter().sum::<f32>() / xs.len() as f32;
+                let sd = (xs.iter().map(|x| (x - m).powi(2)).sum::<f32>() / xs.len() as f32).sqrt();
+                adv.iter_mut()
+                    .skip(k)
+                    .step_by(3)
+                    .for_each(|x| *x = (*x - m) / (sd + 1e-8));
+            }
+        }
+        let stats = self.update(&obs_buf, &act_buf, &logp_buf, &adv, &returns, t_len * ne)?;
+        Ok((stats, episodes))
+    }
+
+    fn update(
+        &mut self,
+        obs: &[f32],
+        actions: &[[f32; 2]],
+        logp_old: &[f32],
+        adv: &[f32],
+        returns: &[f32],
+        samples: usize,
+    ) -> anyhow::Result<UpdateStats> {
+        let (n, d) = (self.agents, self.obs_dim);
+        let mb = (samples / self.cfg.minibatches.max(1)).max(1);
+        let mut stats = UpdateStats::default();
+        let mut count = 0.0;
+        for _ in 0..self.cfg.epochs {
+            let perm = self.rng.permutation(samples);
+            for chunk in perm.chunks(mb) {
+                let b = chunk.len();
+                let gather = |src: &[f32], width: usize| -> Vec<f32> {
+                    chunk
+                        .iter()
+                        .flat_map(|&s| src[s * width..(s + 1) * width].iter().copied())
+                        .collect()
+                };
+                let o = Tensor::from_slice(&gather(obs, n * d), (b * n, d), &self.dev)?;
+                let a_flat: Vec<f32> = chunk
+                    .iter()
+                    .flat_map(|&s| actions[s * n..(s + 1) * n].concat())
+                    .collect();
+                let a = Tensor::from_slice(&a_flat, (b * n, 2), &self.dev)?;
+                let lp_old = Tensor::from_slice(&gather(logp_old, 1), (b, 1), &self.dev)?;
+                let adv_t = Tensor::from_slice(&gather(adv, n * 3), (b, n, 3), &self.dev)?;
+                let ret_t = Tensor::from_slice(&gather(returns, n * 3), (b, n, 3), &self.dev)?;
+
+                let (mean, log_std) = self.actor.forward(&o)?;
+                let lp_new = gaussian_log_prob(&a, &mean, &log_std)?
+                    .reshape((b, n))?
+                    .sum_keepdim(1)?;
+                let mut grads = Vec::with_capacity(3);
+                for k in 0..3 {
+                    let adv_k = adv_t.narrow(2, k, 1)?.squeeze(2)?;
+                    let loss = clipped_surrogate(&lp_new, &lp_old, &adv_k, self.cfg.clip)?;
+                    stats.loss[k] += loss.to_scalar::<f32>()? as f64;
+                    grads.push(flatten(&loss.backward()?, &self.actor_vars)?);
+                }
+                let surgery = if self.cfg.pcgrad {
+                    let order: Vec<Vec<usize>> = (0..3)
+                        .map(|i| {
+                            self.rng
+                                .permutation(3)
+                                .into_iter()
+                                .filter(|&j| j != i)
+                                .collect()
+                        })
+                        .collect();
+                    pcgrad(&grads, &order)
+                } else {
+                    average(&grads)
+                };
+                let entropy = gaussian_entropy(&log_std)?.mean_all()?;
+                let ent_grad = flatten(
+                    &entropy.affine(-self.cfg.entropy_coef, 0.0)?.backward()?,
+                    &self.actor_vars,
+                )?;
+                let mut g: Vec<f32> = surgery
+                    .combined
+                    .iter()
+                    .zip(&ent_grad)
+                    .map(|(a, b)| a + b)
+                    .collect();
+                clip_norm(&mut g, self.cfg.max_grad_norm);
+                self.opt_actor.step(&unflatten(&g, &self.actor_vars)?)?;
+
+                let x = o.reshape((b, n * d))?;
+                let v = self.critic.forward(&x)?.transpose(1, 2)?;
+                let value_loss = (v - &ret_t)?.sqr()?.mean_all()?.affine(1.5, 0.0)?; // 0.5 x 3 heads
+                let mut gc = flatten(&value_loss.backward()?, &self.critic_vars)?;
+                clip_norm(&mut gc, self.cfg.max_grad_norm);
+                self.opt_critic.step(&unflatten(&gc, &self.critic_vars)?)?;
+
+                stats.value_loss += value_loss.to_scalar::<f32>()? as f64;
+                stats.entropy += entropy.to_scalar::<f32>()? as f64;
+                stats.mean_log_std += log_std.mean_all()?.to_scalar::<f32>()? as f64;
+                for p in 0..3 {
+                    stats.cosine[p] += surgery.cosines[p] as f64;
+                    stats.conflict[p] += surgery.conflicts[p] as u32 as f64;
+                }
+                count += 1.0;
+            }
+        }
+        for x in stats
+            .loss
+            .iter_mut()
+            .chain(stats.cosine.iter_mut())
+            .chain(stats.conflict.iter_mut())
+            .chain([
+                &mut stats.value_loss,
+                &mut stats.entropy,
+                &mut stats.mean_log_std,
+            ])
+        {
+            *x /= count;
+        }
+        Ok(stats)
+    }
+}

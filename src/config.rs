@@ -61,7 +61,25 @@ pub struct Config {
     pub inlet: Inlet,
     pub swarm: Swarm,
     pub env: EnvConfig,
+    pub train: Train,
     pub solver: Solver,
+}
+
+/// Learner hyperparameters (SPEC section 5).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Train {
+    pub rollout_steps: u32,
+    pub epochs: u32,
+    pub minibatches: u32,
+    pub gamma: f64,
+    pub lambda: f64,
+    pub learning_rate: f64,
+    pub clip: f64,
+    pub entropy_coef: f64,
+    pub max_grad_norm: f64,
+    pub pcgrad: bool,
+    pub normalize_advantages: bool,
 }
 
 /// Episode settings of the environment (SPEC section 3).
@@ -293,6 +311,25 @@ impl Config {
         positive("inlet.period_s", self.inlet.period_s)?;
         self.validate_swarm()?;
         at_least("env.max_steps", self.env.max_steps, 1)?;
+        let tr = &self.train;
+        at_least("train.rollout_steps", tr.rollout_steps, 1)?;
+        at_least("train.epochs", tr.epochs, 1)?;
+        at_least("train.minibatches", tr.minibatches, 1)?;
+        for (key, v) in [("train.gamma", tr.gamma), ("train.lambda", tr.lambda)] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(range(key, v, "must lie in [0, 1]".into()));
+            }
+        }
+        positive("train.learning_rate", tr.learning_rate)?;
+        positive("train.clip", tr.clip)?;
+        positive("train.max_grad_norm", tr.max_grad_norm)?;
+        if !(tr.entropy_coef >= 0.0 && tr.entropy_coef.is_finite()) {
+            return Err(range(
+                "train.entropy_coef",
+                tr.entropy_coef,
+                "must be non-negative".into(),
+            ));
+        }
         if !(self.env.position_jitter_m >= 0.0 && self.env.position_jitter_m.is_finite()) {
             return Err(range(
                 "env.position_jitter_m",

@@ -246,3 +246,63 @@ fn rollout_writes_episodes_swarm_and_trajectories() {
         assert!(out.join("frames").join(name).exists(), "{name}");
     }
 }
+
+#[test]
+fn train_writes_config_episodes_and_updates() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("train");
+    let args = [
+        "train",
+        "--envs",
+        "2",
+        "--steps",
+        "32",
+        "--seed",
+        "5",
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "domain.nx=300",
+        "--set",
+        "domain.length_m=0.03",
+        "--set",
+        "domain.success_x_m=0.006",
+        "--set",
+        "domain.failure_x_m=0.024",
+        "--set",
+        "swarm.count=2",
+        "--set",
+        "swarm.grid_rows=1",
+        "--set",
+        "swarm.grid_centre_x_m=0.015",
+        "--set",
+        "env.max_steps=3",
+        "--set",
+        "train.rollout_steps=4",
+        "--set",
+        "train.minibatches=2",
+    ];
+    let o = bin(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("adapter: "));
+    let config = std::fs::read_to_string(out.join("config.toml")).unwrap();
+    assert!(
+        config.starts_with("# fluxswarm-gpu ")
+            && config.contains("seed 5, 2 environments, 32 global steps")
+    );
+    // The written configuration loads back.
+    fluxswarm_gpu::config::Config::load(Some(&out.join("config.toml")), &[]).unwrap();
+    let updates = std::fs::read_to_string(out.join("updates.csv")).unwrap();
+    let lines: Vec<&str> = updates.lines().collect();
+    assert_eq!(
+        lines[0],
+        "update,global_step,loss_progress,loss_energy,loss_smoothness,value_loss,entropy,mean_log_std,cos_pe,cos_ps,cos_es,conflict_pe,conflict_ps,conflict_es,sim_s,learn_s"
+    );
+    assert_eq!(lines.len(), 1 + 4, "4 updates of 4 steps x 2 environments");
+    assert!(lines[4].starts_with("4,32,"));
+    let episodes = std::fs::read_to_string(out.join("episodes.csv")).unwrap();
+    let rows: Vec<&str> = episodes.lines().collect();
+    assert!(rows[0].starts_with("global_step,env,episode,steps,outcome,"));
+    // Episodes of 3 steps: 5 finish in each environment within 16 steps.
+    assert_eq!(rows.len(), 1 + 2 * 5, "{episodes}");
+}

@@ -17,20 +17,20 @@ fn evaluate(
 ) -> [f64; 3] {
     let mut env = PointMasses::new(ENVS, AGENTS, seed);
     let mut obs = env.reset().unwrap();
-    let mut done: Vec<[f64; 4]> = Vec::new();
+    let mut done = Vec::new();
     while done.len() < episodes {
         let t = env.step(&policy(&obs)).unwrap();
-        done.extend(t.episodes.iter().flatten());
+        done.extend(t.episodes.into_iter().flatten());
         obs = t.obs;
     }
     let n = episodes as f64;
-    let mut m = [0.0; 3];
-    for ep in &done[..episodes] {
-        for k in 0..3 {
-            m[k] += ep[k] / n;
-        }
-    }
-    m
+    done[..episodes].iter().fold([0.0; 3], |m, ep| {
+        [
+            m[0] + ep.progress / n,
+            m[1] + ep.energy / n,
+            m[2] + ep.smoothness / n,
+        ]
+    })
 }
 
 fn train_and_compare(pcgrad: bool) {
@@ -54,7 +54,7 @@ fn train_and_compare(pcgrad: bool) {
     let mut env = PointMasses::new(ENVS, AGENTS, 11);
     let mut obs = env.reset().unwrap();
     for it in 0..50 {
-        let (stats, _) = learner.iterate(&mut env, &mut obs).unwrap();
+        let stats = learner.iterate(&mut env, &mut obs).unwrap().stats;
         assert!(
             stats.value_loss.is_finite() && stats.entropy.is_finite(),
             "update {it}"

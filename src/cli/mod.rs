@@ -5,6 +5,7 @@ mod common;
 mod info;
 mod rollout;
 mod simulate;
+mod train;
 
 use clap::{Parser, Subcommand};
 
@@ -29,6 +30,8 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Run a baseline policy for K episodes and write episodes, swarm and trajectory CSVs.
     Rollout(rollout::RolloutArgs),
+    /// Train the swarm with MOMAPPO + PCGrad and write episodes.csv and updates.csv.
+    Train(train::TrainArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -37,5 +40,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Simulate(a) => simulate::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Rollout(a) => rollout::run(a),
+        Command::Train(a) => train::run(a),
     }
 }

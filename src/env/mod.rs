@@ -353,3 +353,36 @@ impl SwarmEnv {
         Ok(out)
     }
 }
+
+/// `SwarmEnv` on a device, as the learner's [`crate::learn::env::MultiAgentEnv`].
+pub struct GpuSwarmEnv<'a> {
+    pub env: SwarmEnv,
+    pub ctx: &'a GpuContext,
+}
+
+impl crate::learn::env::MultiAgentEnv for GpuSwarmEnv<'_> {
+    fn n_env(&self) -> usize {
+        self.env.n_env()
+    }
+    fn n_agents(&self) -> usize {
+        self.env.n_agents()
+    }
+    fn obs_dim(&self) -> usize {
+        OBS_DIM
+    }
+    fn reset(&mut self) -> anyhow::Result<Vec<f32>> {
+        Ok(self.env.reset()?)
+    }
+    fn step(&mut self, actions: &[[f32; 2]]) -> anyhow::Result<crate::learn::env::Transition> {
+        let s = self.env.step(self.ctx, actions)?;
+        Ok(crate::learn::env::Transition {
+            obs: s.obs,
+            rewards: s.rewards,
+            terminated: s.terminated,
+            truncated: s.truncated,
+            diverged: s.diverged,
+            final_obs: s.final_obs,
+            episodes: s.ended,
+        })
+    }
+}

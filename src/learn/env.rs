@@ -1,8 +1,8 @@
 //! The environment interface the learner drives (it knows no GPU), and a small CPU
 //! environment with a known optimum for tests: point masses that must reach a target.
 
-use crate::env::reward;
 use crate::env::rng::Rng;
+use crate::env::{EpisodeSummary, Outcome, reward};
 
 /// One batched multi-agent, three-objective step. Shapes as in [`crate::env::StepOutput`].
 #[derive(Debug, Clone)]
@@ -16,8 +16,8 @@ pub struct Transition {
     pub diverged: Vec<bool>,
     /// [N][obs_dim] final observation of each episode that ended.
     pub final_obs: Vec<Option<Vec<f32>>>,
-    /// Per ended episode: (progress sum, energy mean, smoothness mean, steps).
-    pub episodes: Vec<Option<[f64; 4]>>,
+    /// Metrics of each episode that ended.
+    pub episodes: Vec<Option<EpisodeSummary>>,
 }
 
 /// A batched multi-agent, multi-objective environment with 2D actions.
@@ -157,7 +157,21 @@ impl MultiAgentEnv for PointMasses {
             if timeout {
                 let steps = self.steps[e] as f64;
                 let s = self.sums[e];
-                t.episodes[e] = Some([s[0], s[1] / steps, s[2] / steps, steps]);
+                let x: f64 = (0..n).map(|i| self.pos[e * n + i][0]).sum::<f64>() / n as f64;
+                t.episodes[e] = Some(EpisodeSummary {
+                    env: e,
+                    episode: 0,
+                    steps: self.steps[e],
+                    outcome: Outcome::Timeout,
+                    progress: s[0],
+                    energy: s[1] / steps,
+                    smoothness: s[2] / steps,
+                    progress_mean: s[0] / steps,
+                    energy_sum: s[1],
+                    smoothness_sum: s[2],
+                    scalar_return: s[0] + s[1] + s[2],
+                    final_x_com_mm: x,
+                });
                 t.final_obs[e] = Some(self.observe(e));
                 self.reset_env(e);
             }

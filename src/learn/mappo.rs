@@ -15,6 +15,7 @@ use super::nets::{Actor, Critic, gaussian_entropy, gaussian_log_prob};
 use super::pcgrad::{average, pcgrad};
 use super::ppo::clipped_surrogate;
 use super::surgery::{flatten, named_vars, unflatten};
+use crate::env::EpisodeSummary;
 use crate::env::rng::Rng;
 
 /// Hyperparameters (SPEC section 5 defaults).
@@ -32,6 +33,25 @@ pub struct TrainConfig {
     pub pcgrad: bool,
     /// Normalise each objective's advantages to zero mean, unit variance per rollout.
     pub normalize_advantages: bool,
+}
+
+impl TrainConfig {
+    /// The `[train]` table of a configuration.
+    pub fn from_config(t: &crate::config::Train) -> Self {
+        Self {
+            rollout_steps: t.rollout_steps as usize,
+            epochs: t.epochs as usize,
+            minibatches: t.minibatches as usize,
+            gamma: t.gamma as f32,
+            lambda: t.lambda as f32,
+            learning_rate: t.learning_rate,
+            clip: t.clip,
+            entropy_coef: t.entropy_coef,
+            max_grad_norm: t.max_grad_norm,
+            pcgrad: t.pcgrad,
+            normalize_advantages: t.normalize_advantages,
+        }
+    }
 }
 
 impl Default for TrainConfig {
@@ -64,6 +84,19 @@ pub struct UpdateStats {
     pub cosine: [f64; 3],
     /// Fraction of minibatches in which that pair conflicted.
     pub conflict: [f64; 3],
+}
+
+/// One rollout and update.
+#[derive(Debug, Clone)]
+pub struct Iteration {
+    pub stats: UpdateStats,
+    /// Episodes that ended during the rollout.
+    pub episodes: Vec<EpisodeSummary>,
+    /// Environment steps collected (rollout_steps x E).
+    pub env_steps: usize,
+    /// Wall time inside `env.step` and everything else (acting, GAE, the update) (s).
+    pub sim_s: f64,
+    pub learn_s: f64,
 }
 
 pub struct Learner {
@@ -175,12 +208,13 @@ impl Learner {
     }
 
     /// Collects one rollout from `env` (continuing from `obs`) and updates the networks.
-    /// Returns the update's statistics and the metrics of the episodes that ended.
     pub fn iterate(
         &mut self,
         env: &mut dyn MultiAgentEnv,
         obs: &mut Vec<f32>,
-    ) -> anyhow::Result<(UpdateStats, Vec<[f64; 4]>)> {
+    ) -> anyhow::Result<Iteration> {
+        let start = std::time::Instant::now();
+        let mut sim_s = 0.0;
         let (t_len, ne, n, d) = (
             self.cfg.rollout_steps,
             env.n_env(),
@@ -195,7 +229,7 @@ impl Learner {
         let mut next_values = vec![0.0f32; t_len * ne * per_env];
         let mut rewards = Vec::with_capacity(t_len * ne * per_env);
         let (mut term, mut trunc, mut div) = (Vec::new(), Vec::new(), Vec::new());
-        let mut episodes = Vec::new();
+        let mut episodes: Vec<EpisodeSummary> = Vec::new();
         let mut ended_prev = vec![false; ne];
         for t in 0..t_len {
             let (actions, logp) = self.act(obs, false)?;
@@ -214,7 +248,9 @@ impl Learner {
             act_buf.extend_from_slice(&actions);
             logp_buf.extend(logp);
             values.extend_from_slice(&v);
+            let t0 = std::time::Instant::now();
             let tr = env.step(&actions)?;
+            sim_s += t0.elapsed().as_secs_f64();
             rewards.extend_from_slice(&tr.rewards);
             for (e, ended) in ended_prev.iter_mut().enumerate() {
                 *ended = tr.terminated[e] || tr.truncated[e] || tr.diverged[e];
@@ -225,8 +261,8 @@ impl Learner {
                     let dst = (t * ne + e) * per_env;
                     next_values[dst..dst + per_env].copy_from_slice(&vf);
                 }
-                if let Some(ep) = tr.episodes[e] {
-                    episodes.push(ep);
+                if let Some(ep) = &tr.episodes[e] {
+                    episodes.push(ep.clone());
                 }
             }
             term.extend_from_slice(&tr.terminated);
@@ -270,7 +306,13 @@ impl Learner {
             }
         }
         let stats = self.update(&obs_buf, &act_buf, &logp_buf, &adv, &returns, t_len * ne)?;
-        Ok((stats, episodes))
+        Ok(Iteration {
+            stats,
+            episodes,
+            env_steps: t_len * ne,
+            sim_s,
+            learn_s: start.elapsed().as_secs_f64() - sim_s,
+        })
     }
 
     fn update(
@@ -376,5 +418,16 @@ impl Learner {
             *x /= count;
         }
         Ok(stats)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_train_table_is_the_spec_default() {
+        let c = crate::config::Config::paper();
+        assert_eq!(TrainConfig::from_config(&c.train), TrainConfig::default());
     }
 }

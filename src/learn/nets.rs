@@ -1,6 +1,8 @@
 //! The networks of SPEC section 5, in candle.
 //! Actor (shared by all agents): o_i [B, 8] -> 256 -> 256 (tanh) -> mean [B, 2], log_std [B, 2]
-//! (log_std clamped to [LOG_STD_MIN, LOG_STD_MAX]).
+//! (log_std = MIN + (MAX - MIN) sigmoid(raw + ln(-MIN / MAX)): a smooth bound in [MIN, MAX] that is
+//! 0 for a raw output of 0 and never loses its gradient, unlike a hard clamp, whose zero gradient
+//! past the bound once left a run stuck at MAX).
 //! Critic (centralised): joint state [B, N*8] -> 256 -> 256 (tanh) -> three linear heads of N
 //! values each -> [B, 3, N] (progress, energy, smoothness).
 //! Parameters are named through `VarBuilder::pp("actor")` / `pp("critic")`.
@@ -34,9 +36,10 @@ impl Actor {
         let h = self.l2.forward(&self.l1.forward(obs)?.tanh()?)?.tanh()?;
         let out = self.head.forward(&h)?;
         let mean = out.narrow(1, 0, self.action_dim)?;
-        let log_std = out
-            .narrow(1, self.action_dim, self.action_dim)?
-            .clamp(LOG_STD_MIN, LOG_STD_MAX)?;
+        let raw = out.narrow(1, self.action_dim, self.action_dim)?;
+        let shift = (-LOG_STD_MIN / LOG_STD_MAX).ln();
+        let log_std = candle_nn::ops::sigmoid(&raw.affine(1.0, shift)?)?
+            .affine(LOG_STD_MAX - LOG_STD_MIN, LOG_STD_MIN)?;
         Ok((mean, log_std))
     }
 }

@@ -123,6 +123,34 @@ fn adam(vars: &[(String, Var)], lr: f64) -> candle_core::Result<AdamW> {
     AdamW::new(vars.iter().map(|v| v.1.clone()).collect(), params)
 }
 
+/// Re-initialises every parameter from `rng` (candle cannot seed its CPU generator), with
+/// candle's own laws: weights [out, in] Kaiming-normal, N(0, 2 / in); biases uniform in
+/// +-1 / sqrt(in) of their layer. Parameters are visited in name order, so a seed fixes them.
+pub fn seed_parameters(map: &VarMap, rng: &mut Rng) -> candle_core::Result<()> {
+    let vars = named_vars(map, "");
+    let fan_in = |layer: &str| {
+        vars.iter()
+            .find(|(k, _)| k == &format!("{layer}.weight"))
+            .map(|(_, v)| v.dims()[1])
+            .unwrap_or(1)
+    };
+    for (name, var) in &vars {
+        let (layer, kind) = name.rsplit_once('.').unwrap_or(("", name));
+        let n_in = fan_in(layer) as f64;
+        let values: Vec<f32> = (0..var.elem_count())
+            .map(|_| {
+                if kind == "weight" {
+                    ((2.0 / n_in).sqrt() * rng.normal()) as f32
+                } else {
+                    rng.range(-1.0, 1.0) as f32 / n_in.sqrt() as f32
+                }
+            })
+            .collect();
+        var.set(&Tensor::from_vec(values, var.shape(), var.device())?.to_dtype(var.dtype())?)?;
+    }
+    Ok(())
+}
+
 fn clip_norm(g: &mut [f32], max: f64) {
     let norm = g.iter().map(|x| (*x as f64).powi(2)).sum::<f64>().sqrt();
     if norm > max {
@@ -138,6 +166,8 @@ impl Learner {
         let vb = VarBuilder::from_varmap(&map, DType::F32, &dev);
         let actor = Actor::new(vb.pp("actor"), obs_dim, 2)?;
         let critic = Critic::new(vb.pp("critic"), agents, obs_dim)?;
+        let mut rng = Rng::new(seed);
+        seed_parameters(&map, &mut rng)?;
         let actor_vars = named_vars(&map, "actor");
         let critic_vars = named_vars(&map, "critic");
         let opt_actor = adam(&actor_vars, cfg.learning_rate)?;
@@ -153,7 +183,7 @@ impl Learner {
             critic_vars,
             opt_actor,
             opt_critic,
-            rng: Rng::new(seed),
+            rng,
             dev,
         })
     }
@@ -424,6 +454,37 @@ impl Learner {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_seed_fixes_the_parameters() {
+        let a = Learner::new(3, 8, TrainConfig::default(), 42).unwrap();
+        let b = Learner::new(3, 8, TrainConfig::default(), 42).unwrap();
+        let c = Learner::new(3, 8, TrainConfig::default(), 43).unwrap();
+        let flat = |l: &Learner| -> Vec<f32> {
+            named_vars(l.var_map(), "")
+                .iter()
+                .flat_map(|(_, v)| {
+                    v.as_tensor()
+                        .flatten_all()
+                        .unwrap()
+                        .to_vec1::<f32>()
+                        .unwrap()
+                })
+                .collect()
+        };
+        assert_eq!(flat(&a), flat(&b));
+        assert_ne!(flat(&a), flat(&c));
+        // Kaiming-normal first layer: variance 2 / 8.
+        let w: Vec<f32> = named_vars(a.var_map(), "actor.l1.weight")[0]
+            .1
+            .as_tensor()
+            .flatten_all()
+            .unwrap()
+            .to_vec1()
+            .unwrap();
+        let var = w.iter().map(|x| (*x as f64).powi(2)).sum::<f64>() / w.len() as f64;
+        assert!((var - 0.25).abs() < 0.03, "{var}");
+    }
 
     #[test]
     fn paper_train_table_is_the_spec_default() {

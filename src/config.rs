@@ -65,7 +65,7 @@ pub struct Config {
     pub solver: Solver,
 }
 
-/// Learner hyperparameters (SPEC section 5).
+/// Learner hyperparameters (SPEC section 5); `Default` is the embedded paper configuration's.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Train {
@@ -137,6 +137,12 @@ pub enum Advection {
     SemiLagrangian,
     /// Second-order MacCormack with the Selle et al. (2008) extrema clamp.
     Maccormack,
+}
+
+impl Default for Train {
+    fn default() -> Self {
+        Config::paper().train
+    }
 }
 
 /// How the members are placed at reset.

@@ -39,6 +39,26 @@ const SMALL: &[&str] = &[
     "swarm.count=0",
 ];
 
+/// A 30 mm channel (success line 6 mm, failure line 24 mm) with 2 members, 3-step episodes.
+const SMALL_SWARM: &[&str] = &[
+    "--set",
+    "domain.nx=300",
+    "--set",
+    "domain.length_m=0.03",
+    "--set",
+    "domain.success_x_m=0.006",
+    "--set",
+    "domain.failure_x_m=0.024",
+    "--set",
+    "swarm.count=2",
+    "--set",
+    "swarm.grid_rows=1",
+    "--set",
+    "swarm.grid_centre_x_m=0.015",
+    "--set",
+    "env.max_steps=3",
+];
+
 #[test]
 fn simulate_writes_frames_fields_and_summary() {
     let dir = tempfile::tempdir().unwrap();
@@ -186,24 +206,8 @@ fn rollout_writes_episodes_swarm_and_trajectories() {
         "2",
         "--out",
         out.to_str().unwrap(),
-        "--set",
-        "domain.nx=300",
-        "--set",
-        "domain.length_m=0.03",
-        "--set",
-        "domain.success_x_m=0.006",
-        "--set",
-        "domain.failure_x_m=0.024",
-        "--set",
-        "swarm.count=2",
-        "--set",
-        "swarm.grid_rows=1",
-        "--set",
-        "swarm.grid_centre_x_m=0.015",
-        "--set",
-        "env.max_steps=3",
     ];
-    let o = bin(&args);
+    let o = bin(&[&args[..], SMALL_SWARM].concat());
     assert!(o.status.success(), "{}", text(&o));
     let read = |name: &str| std::fs::read_to_string(out.join(name)).unwrap();
     let episodes = read("episodes.csv");
@@ -262,27 +266,11 @@ fn train_writes_config_episodes_and_updates() {
         "--out",
         out.to_str().unwrap(),
         "--set",
-        "domain.nx=300",
-        "--set",
-        "domain.length_m=0.03",
-        "--set",
-        "domain.success_x_m=0.006",
-        "--set",
-        "domain.failure_x_m=0.024",
-        "--set",
-        "swarm.count=2",
-        "--set",
-        "swarm.grid_rows=1",
-        "--set",
-        "swarm.grid_centre_x_m=0.015",
-        "--set",
-        "env.max_steps=3",
-        "--set",
         "train.rollout_steps=4",
         "--set",
         "train.minibatches=2",
     ];
-    let o = bin(&args);
+    let o = bin(&[&args[..], SMALL_SWARM].concat());
     assert!(o.status.success(), "{}", text(&o));
     assert!(text(&o).contains("adapter: "));
     let config = std::fs::read_to_string(out.join("config.toml")).unwrap();

@@ -12,6 +12,7 @@ use fluxswarm_gpu::env::policy::Baseline;
 use fluxswarm_gpu::env::rng::Rng;
 use fluxswarm_gpu::env::{SwarmEnv, reward};
 use fluxswarm_gpu::gpu::params::{GpuMember, GpuMemberDiag};
+use fluxswarm_gpu::output::episodes::EpisodesCsv;
 use fluxswarm_gpu::output::frame::{self, MemberMark};
 use fluxswarm_gpu::output::run_dir;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -83,11 +84,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
             std::fs::File::create(out.join(name)).with_context(|| format!("creating {name}"))?;
         Ok(std::io::BufWriter::new(f))
     };
-    let mut episodes_csv = create("episodes.csv")?;
-    writeln!(
-        episodes_csv,
-        "env,episode,steps,outcome,progress,energy,smoothness,progress_mean,energy_sum,smoothness_sum,scalar_return,final_x_com_mm"
-    )?;
+    let mut episodes_csv = EpisodesCsv::create(&out, false).context("creating episodes.csv")?;
     let mut swarm_csv = create("swarm.csv")?;
     writeln!(
         swarm_csv,
@@ -223,23 +220,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
             }
             if let Some(s) = &step.ended[e] {
                 finished += 1;
-                writeln!(
-                    episodes_csv,
-                    "{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4}",
-                    s.env,
-                    s.episode,
-                    s.steps,
-                    s.outcome,
-                    s.progress,
-                    s.energy,
-                    s.smoothness,
-                    s.progress_mean,
-                    s.energy_sum,
-                    s.smoothness_sum,
-                    s.scalar_return,
-                    s.final_x_com_mm
-                )?;
-                episodes_csv.flush()?;
+                episodes_csv.write(0, s)?;
                 bar.inc(1);
                 bar.set_message(format!(
                     "last: env {e} {} after {} steps, progress {:.2}",
@@ -278,7 +259,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
         obs = step.obs;
     }
     bar.finish();
-    for w in [&mut episodes_csv, &mut swarm_csv, &mut traj_csv] {
+    for w in [&mut swarm_csv, &mut traj_csv] {
         w.flush()?;
     }
     let wall = start.elapsed().as_secs_f64();

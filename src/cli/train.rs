@@ -13,6 +13,7 @@ use clap::Args;
 use fluxswarm_gpu::env::{GpuSwarmEnv, OBS_DIM, Outcome, SwarmEnv};
 use fluxswarm_gpu::learn::env::MultiAgentEnv;
 use fluxswarm_gpu::learn::mappo::{Learner, TrainConfig};
+use fluxswarm_gpu::output::episodes::EpisodesCsv;
 use fluxswarm_gpu::output::run_dir;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -73,7 +74,7 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
         env: swarm,
         ctx: &ctx,
     };
-    let cfg = TrainConfig::from_config(&resolved.config.train);
+    let cfg: TrainConfig = resolved.config.train.clone();
     let mut learner = Learner::new(env.n_agents(), OBS_DIM, cfg, args.seed)?;
     let mut obs = env.reset()?;
 
@@ -82,11 +83,7 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
             std::fs::File::create(out.join(name)).with_context(|| format!("creating {name}"))?;
         Ok(std::io::BufWriter::new(f))
     };
-    let mut episodes_csv = create("episodes.csv")?;
-    writeln!(
-        episodes_csv,
-        "global_step,env,episode,steps,outcome,progress,energy,smoothness,progress_mean,energy_sum,smoothness_sum,scalar_return,final_x_com_mm"
-    )?;
+    let mut episodes_csv = EpisodesCsv::create(&out, true).context("creating episodes.csv")?;
     let mut updates_csv = create("updates.csv")?;
     writeln!(
         updates_csv,
@@ -108,22 +105,7 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
         sim_total += it.sim_s;
         learn_total += it.learn_s;
         for s in &it.episodes {
-            writeln!(
-                episodes_csv,
-                "{global},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4}",
-                s.env,
-                s.episode,
-                s.steps,
-                s.outcome,
-                s.progress,
-                s.energy,
-                s.smoothness,
-                s.progress_mean,
-                s.energy_sum,
-                s.smoothness_sum,
-                s.scalar_return,
-                s.final_x_com_mm
-            )?;
+            episodes_csv.write(global, s)?;
             recent.push_back((
                 s.outcome == Outcome::Success,
                 [s.progress, s.energy, s.smoothness],
@@ -151,7 +133,6 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
             it.sim_s,
             it.learn_s
         )?;
-        episodes_csv.flush()?;
         updates_csv.flush()?;
         if !recent.is_empty() {
             let n = recent.len() as f64;

@@ -18,59 +18,8 @@ use super::surgery::{flatten, named_vars, unflatten};
 use crate::env::EpisodeSummary;
 use crate::env::rng::Rng;
 
-/// Hyperparameters (SPEC section 5 defaults).
-#[derive(Debug, Clone, PartialEq)]
-pub struct TrainConfig {
-    pub rollout_steps: usize,
-    pub epochs: usize,
-    pub minibatches: usize,
-    pub gamma: f32,
-    pub lambda: f32,
-    pub learning_rate: f64,
-    pub clip: f64,
-    pub entropy_coef: f64,
-    pub max_grad_norm: f64,
-    pub pcgrad: bool,
-    /// Normalise each objective's advantages to zero mean, unit variance per rollout.
-    pub normalize_advantages: bool,
-}
-
-impl TrainConfig {
-    /// The `[train]` table of a configuration.
-    pub fn from_config(t: &crate::config::Train) -> Self {
-        Self {
-            rollout_steps: t.rollout_steps as usize,
-            epochs: t.epochs as usize,
-            minibatches: t.minibatches as usize,
-            gamma: t.gamma as f32,
-            lambda: t.lambda as f32,
-            learning_rate: t.learning_rate,
-            clip: t.clip,
-            entropy_coef: t.entropy_coef,
-            max_grad_norm: t.max_grad_norm,
-            pcgrad: t.pcgrad,
-            normalize_advantages: t.normalize_advantages,
-        }
-    }
-}
-
-impl Default for TrainConfig {
-    fn default() -> Self {
-        Self {
-            rollout_steps: 16,
-            epochs: 4,
-            minibatches: 16,
-            gamma: 0.95,
-            lambda: 0.95,
-            learning_rate: 1e-3,
-            clip: 0.2,
-            entropy_coef: 0.01,
-            max_grad_norm: 0.5,
-            pcgrad: true,
-            normalize_advantages: true,
-        }
-    }
-}
+/// Hyperparameters: the `[train]` table of the configuration (SPEC section 5).
+pub use crate::config::Train as TrainConfig;
 
 /// What one update logs (the `updates.csv` columns it owns).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -246,7 +195,7 @@ impl Learner {
         let start = std::time::Instant::now();
         let mut sim_s = 0.0;
         let (t_len, ne, n, d) = (
-            self.cfg.rollout_steps,
+            self.cfg.rollout_steps as usize,
             env.n_env(),
             self.agents,
             self.obs_dim,
@@ -321,8 +270,8 @@ impl Learner {
                 truncated: &trunc,
                 diverged: &div,
             },
-            self.cfg.gamma,
-            self.cfg.lambda,
+            self.cfg.gamma as f32,
+            self.cfg.lambda as f32,
         );
         if self.cfg.normalize_advantages {
             for k in 0..3 {
@@ -355,7 +304,7 @@ impl Learner {
         samples: usize,
     ) -> anyhow::Result<UpdateStats> {
         let (n, d) = (self.agents, self.obs_dim);
-        let mb = (samples / self.cfg.minibatches.max(1)).max(1);
+        let mb = (samples / self.cfg.minibatches.max(1) as usize).max(1);
         let mut stats = UpdateStats::default();
         let mut count = 0.0;
         for _ in 0..self.cfg.epochs {
@@ -487,8 +436,16 @@ mod tests {
     }
 
     #[test]
-    fn paper_train_table_is_the_spec_default() {
-        let c = crate::config::Config::paper();
-        assert_eq!(TrainConfig::from_config(&c.train), TrainConfig::default());
+    fn paper_train_table_holds_the_spec_values() {
+        let t = TrainConfig::default();
+        assert_eq!((t.rollout_steps, t.epochs, t.minibatches), (16, 4, 16));
+        assert_eq!(
+            (t.gamma, t.lambda, t.learning_rate, t.clip),
+            (0.95, 0.95, 1e-3, 0.2)
+        );
+        assert_eq!(
+            (t.entropy_coef, t.max_grad_norm, t.pcgrad),
+            (0.01, 0.5, true)
+        );
     }
 }

@@ -1,5 +1,6 @@
 //! Files a run writes (SPEC section 7): frames, `.npy` fields, CSV tables, run directories.
 
+pub mod episodes;
 pub mod frame;
 pub mod npy;
 pub mod run_dir;

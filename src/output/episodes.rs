@@ -1,0 +1,51 @@
+//! `episodes.csv` (SPEC section 7), written by `rollout` and `train` (which adds `global_step`
+//! first).
+
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+use crate::env::EpisodeSummary;
+
+const COLUMNS: &str = "env,episode,steps,outcome,progress,energy,smoothness,progress_mean,energy_sum,smoothness_sum,scalar_return,final_x_com_mm";
+
+pub struct EpisodesCsv {
+    out: BufWriter<std::fs::File>,
+    global_step: bool,
+}
+
+impl EpisodesCsv {
+    /// Creates `dir/episodes.csv` with its header; `global_step` adds that column first.
+    pub fn create(dir: &Path, global_step: bool) -> std::io::Result<Self> {
+        let mut out = BufWriter::new(std::fs::File::create(dir.join("episodes.csv"))?);
+        if global_step {
+            writeln!(out, "global_step,{COLUMNS}")?;
+        } else {
+            writeln!(out, "{COLUMNS}")?;
+        }
+        Ok(Self { out, global_step })
+    }
+
+    /// Appends one finished episode (and flushes, so a run's file is readable while it goes).
+    pub fn write(&mut self, global_step: u64, s: &EpisodeSummary) -> std::io::Result<()> {
+        if self.global_step {
+            write!(self.out, "{global_step},")?;
+        }
+        writeln!(
+            self.out,
+            "{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4}",
+            s.env,
+            s.episode,
+            s.steps,
+            s.outcome,
+            s.progress,
+            s.energy,
+            s.smoothness,
+            s.progress_mean,
+            s.energy_sum,
+            s.smoothness_sum,
+            s.scalar_return,
+            s.final_x_com_mm
+        )?;
+        self.out.flush()
+    }
+}

@@ -30,7 +30,7 @@ fn a_swarm_past_the_success_line_terminates_with_success() {
     env.reset().unwrap();
     let s = env.step(&ctx, &[[0.0; 2]; 3]).unwrap();
     assert!(s.terminated[0] && !s.truncated[0] && !s.diverged[0]);
-    let ep = s.ended[0].as_ref().unwrap();
+    let ep = s.episodes[0].as_ref().unwrap();
     assert_eq!(ep.outcome, Outcome::Success);
     assert_eq!(ep.steps, 1);
     // Two members past x_s earn +10 each, the third (6.5 mm) its displacement reward.
@@ -57,7 +57,7 @@ fn a_member_past_the_failure_line_terminates_with_failure() {
     env.reset().unwrap();
     let s = env.step(&ctx, &[[0.0; 2]; 3]).unwrap();
     assert!(s.terminated[0]);
-    assert_eq!(s.ended[0].as_ref().unwrap().outcome, Outcome::Failure);
+    assert_eq!(s.episodes[0].as_ref().unwrap().outcome, Outcome::Failure);
     assert_eq!(s.rewards[6], -10.0);
 }
 
@@ -73,7 +73,7 @@ fn episodes_truncate_after_max_steps_with_a_final_observation() {
         assert!(!s.terminated[0]);
         assert_eq!(s.truncated[0], k == 3, "step {k}");
         if k == 3 {
-            let ep = s.ended[0].as_ref().unwrap();
+            let ep = s.episodes[0].as_ref().unwrap();
             assert_eq!((ep.outcome, ep.steps, ep.episode), (Outcome::Timeout, 3, 0));
             // Zero actions: smoothness 1 every step; no thrust, so energy 0.
             assert_eq!(ep.smoothness, 1.0);
@@ -112,7 +112,7 @@ fn a_diverged_environment_ends_alone_and_the_others_continue_unchanged() {
         assert_eq!(s.diverged[1], k == 2, "step {k}");
         if k == 2 {
             assert!(!s.terminated[1] && !s.truncated[1]);
-            assert_eq!(s.ended[1].as_ref().unwrap().outcome, Outcome::Diverged);
+            assert_eq!(s.episodes[1].as_ref().unwrap().outcome, Outcome::Diverged);
             assert!(
                 s.rewards[9..18].iter().all(|&x| x == 0.0),
                 "no rewards from a garbage state"
@@ -146,9 +146,9 @@ fn the_same_seed_gives_the_same_trajectory_and_k_of_a_batch_equals_k_alone() {
         for _ in 0..4 {
             let a = Baseline::Random.act_all(&obs, &mut rng);
             let s = env.step(&ctx, &a).unwrap();
-            obs = s.obs;
+            obs = s.transition.obs;
             trace.extend(&obs);
-            trace.extend(&s.rewards);
+            trace.extend(&s.transition.rewards);
         }
         trace
     };

@@ -218,7 +218,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
                     &resolved,
                 )?;
             }
-            if let Some(s) = &step.ended[e] {
+            if let Some(s) = &step.episodes[e] {
                 finished += 1;
                 episodes_csv.write(0, s)?;
                 bar.inc(1);
@@ -256,7 +256,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
                 }
             }
         }
-        obs = step.obs;
+        obs = step.transition.obs;
     }
     bar.finish();
     for w in [&mut swarm_csv, &mut traj_csv] {

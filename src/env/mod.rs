@@ -66,9 +66,10 @@ pub struct EpisodeSummary {
     pub final_x_com_mm: f64,
 }
 
-/// What `step` returns.
+/// One batched multi-agent, three-objective step: what every environment the learner drives
+/// returns (see [`crate::learn::env::MultiAgentEnv`]).
 #[derive(Debug, Clone)]
-pub struct StepOutput {
+pub struct Transition {
     /// [E][N][8]; for an environment that just ended, the first observation of its new episode.
     pub obs: Vec<f32>,
     /// [E][N][3]; zero for a diverged environment (its state is garbage).
@@ -80,13 +81,28 @@ pub struct StepOutput {
     /// [N][8] final observation of each environment whose episode ended this step.
     pub final_obs: Vec<Option<Vec<f32>>>,
     /// Metrics of each episode that ended this step.
-    pub ended: Vec<Option<EpisodeSummary>>,
+    pub episodes: Vec<Option<EpisodeSummary>>,
+}
+
+/// What `SwarmEnv::step` returns: the [`Transition`] (also reachable through `Deref`) plus the
+/// swarm's state for logging.
+#[derive(Debug, Clone)]
+pub struct StepOutput {
+    pub transition: Transition,
     /// Members and their forces at the end of this step, before any reset, [E][N].
     pub members: Vec<GpuMember>,
     pub forces: Vec<GpuMemberDiag>,
     /// Episode index and step within it (after this step) of each environment, before reset.
     pub episode: Vec<u64>,
     pub episode_step: Vec<u32>,
+}
+
+impl std::ops::Deref for StepOutput {
+    type Target = Transition;
+
+    fn deref(&self) -> &Transition {
+        &self.transition
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -245,22 +261,25 @@ impl SwarmEnv {
         assert_eq!(self.episodes.len(), self.n_env, "reset before step");
         self.batch.set_all_actions(actions);
         let health = self.batch.step(ctx)?;
+        // One copy of the read-back: resets below overwrite the batch's cached members.
         let members = self.batch.members().to_vec();
         let forces = self.batch.member_forces().to_vec();
-        let c = self.resolved.config.clone();
+        let c = &self.resolved.config;
         let (xs, xf) = (c.domain.success_x_m, c.domain.failure_x_m);
-        let f_max = c.swarm.max_thrust_n;
+        let (f_max, max_steps) = (c.swarm.max_thrust_n, c.env.max_steps);
         let n = self.n;
         let mut out = StepOutput {
-            obs: Vec::with_capacity(self.n_env * n * OBS_DIM),
-            rewards: vec![0.0; self.n_env * n * N_OBJECTIVES],
-            terminated: vec![false; self.n_env],
-            truncated: vec![false; self.n_env],
-            diverged: vec![false; self.n_env],
-            final_obs: vec![None; self.n_env],
-            ended: vec![None; self.n_env],
-            members: members.clone(),
-            forces: forces.clone(),
+            transition: Transition {
+                obs: Vec::with_capacity(self.n_env * n * OBS_DIM),
+                rewards: vec![0.0; self.n_env * n * N_OBJECTIVES],
+                terminated: vec![false; self.n_env],
+                truncated: vec![false; self.n_env],
+                diverged: vec![false; self.n_env],
+                final_obs: vec![None; self.n_env],
+                episodes: vec![None; self.n_env],
+            },
+            members: Vec::new(),
+            forces: Vec::new(),
             episode: vec![0; self.n_env],
             episode_step: vec![0; self.n_env],
         };
@@ -293,7 +312,7 @@ impl SwarmEnv {
                         reward::smoothness(ep.previous_action[i], a),
                     ];
                     for k in 0..3 {
-                        out.rewards[(e * n + i) * 3 + k] = r[k] as f32;
+                        out.transition.rewards[(e * n + i) * 3 + k] = r[k] as f32;
                         mean[k] += r[k] / n as f64;
                     }
                     ep.previous_action[i] = Some(a);
@@ -312,25 +331,26 @@ impl SwarmEnv {
                 Some(Outcome::Success)
             } else if failure {
                 Some(Outcome::Failure)
-            } else if ep.steps >= c.env.max_steps {
+            } else if ep.steps >= max_steps {
                 Some(Outcome::Timeout)
             } else {
                 None
             };
-            out.diverged[e] = diverged;
-            out.terminated[e] = matches!(outcome, Some(Outcome::Success | Outcome::Failure));
-            out.truncated[e] = outcome == Some(Outcome::Timeout);
+            out.transition.diverged[e] = diverged;
+            out.transition.terminated[e] =
+                matches!(outcome, Some(Outcome::Success | Outcome::Failure));
+            out.transition.truncated[e] = outcome == Some(Outcome::Timeout);
             let obs_e: Vec<f32> = ms
                 .iter()
                 .zip(fs)
                 .flat_map(|(m, d)| self.observe(*m, d.p))
                 .collect();
             match outcome {
-                None => out.obs.extend(obs_e),
+                None => out.transition.obs.extend(obs_e),
                 Some(outcome) => {
                     let ep = &self.episodes[e];
                     let steps = ep.steps as f64;
-                    out.ended[e] = Some(EpisodeSummary {
+                    out.transition.episodes[e] = Some(EpisodeSummary {
                         env: e,
                         episode: ep.index,
                         steps: ep.steps,
@@ -344,12 +364,14 @@ impl SwarmEnv {
                         scalar_return: ep.progress_sum + ep.energy_sum + ep.smoothness_sum,
                         final_x_com_mm: x_com * 1e3,
                     });
-                    out.final_obs[e] = Some(obs_e);
+                    out.transition.final_obs[e] = Some(obs_e);
                     let next = ep.index + 1;
-                    out.obs.extend(self.reset_env(e, next)?);
+                    out.transition.obs.extend(self.reset_env(e, next)?);
                 }
             }
         }
+        out.members = members;
+        out.forces = forces;
         Ok(out)
     }
 }
@@ -373,16 +395,8 @@ impl crate::learn::env::MultiAgentEnv for GpuSwarmEnv<'_> {
     fn reset(&mut self) -> anyhow::Result<Vec<f32>> {
         Ok(self.env.reset()?)
     }
-    fn step(&mut self, actions: &[[f32; 2]]) -> anyhow::Result<crate::learn::env::Transition> {
+    fn step(&mut self, actions: &[[f32; 2]]) -> anyhow::Result<Transition> {
         let s = self.env.step(self.ctx, actions)?;
-        Ok(crate::learn::env::Transition {
-            obs: s.obs,
-            rewards: s.rewards,
-            terminated: s.terminated,
-            truncated: s.truncated,
-            diverged: s.diverged,
-            final_obs: s.final_obs,
-            episodes: s.ended,
-        })
+        Ok(s.transition)
     }
 }

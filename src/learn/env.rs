@@ -1,24 +1,9 @@
 //! The environment interface the learner drives (it knows no GPU), and a small CPU
 //! environment with a known optimum for tests: point masses that must reach a target.
 
+pub use crate::env::Transition;
 use crate::env::rng::Rng;
 use crate::env::{EpisodeSummary, Outcome, reward};
-
-/// One batched multi-agent, three-objective step. Shapes as in [`crate::env::StepOutput`].
-#[derive(Debug, Clone)]
-pub struct Transition {
-    /// [E][N][obs_dim], the next observation (a new episode's first after an ending).
-    pub obs: Vec<f32>,
-    /// [E][N][3] (progress, energy, smoothness).
-    pub rewards: Vec<f32>,
-    pub terminated: Vec<bool>,
-    pub truncated: Vec<bool>,
-    pub diverged: Vec<bool>,
-    /// [N][obs_dim] final observation of each episode that ended.
-    pub final_obs: Vec<Option<Vec<f32>>>,
-    /// Metrics of each episode that ended.
-    pub episodes: Vec<Option<EpisodeSummary>>,
-}
 
 /// A batched multi-agent, multi-objective environment with 2D actions.
 pub trait MultiAgentEnv {

@@ -403,24 +403,14 @@ impl Learner {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::learn::surgery::values;
 
     #[test]
     fn a_seed_fixes_the_parameters() {
         let a = Learner::new(3, 8, TrainConfig::default(), 42).unwrap();
         let b = Learner::new(3, 8, TrainConfig::default(), 42).unwrap();
         let c = Learner::new(3, 8, TrainConfig::default(), 43).unwrap();
-        let flat = |l: &Learner| -> Vec<f32> {
-            named_vars(l.var_map(), "")
-                .iter()
-                .flat_map(|(_, v)| {
-                    v.as_tensor()
-                        .flatten_all()
-                        .unwrap()
-                        .to_vec1::<f32>()
-                        .unwrap()
-                })
-                .collect()
-        };
+        let flat = |l: &Learner| values(&named_vars(l.var_map(), "")).unwrap();
         assert_eq!(flat(&a), flat(&b));
         assert_ne!(flat(&a), flat(&c));
         // Kaiming-normal first layer: variance 2 / 8.

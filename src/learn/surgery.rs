@@ -35,6 +35,20 @@ pub fn flatten(grads: &GradStore, vars: &[(String, Var)]) -> Result<Vec<f32>> {
     Ok(out)
 }
 
+/// The values of the variables in order, flattened.
+pub fn values(vars: &[(String, Var)]) -> Result<Vec<f32>> {
+    let mut out = Vec::new();
+    for (_, v) in vars {
+        out.extend(
+            v.as_tensor()
+                .flatten_all()?
+                .to_dtype(candle_core::DType::F32)?
+                .to_vec1::<f32>()?,
+        );
+    }
+    Ok(out)
+}
+
 /// A `GradStore` holding `flat` split back over the variables.
 pub fn unflatten(flat: &[f32], vars: &[(String, Var)]) -> Result<GradStore> {
     let mut store = GradStore::default();
@@ -95,24 +109,12 @@ mod tests {
         let store = unflatten(&s.combined, &vars).unwrap();
         assert_eq!(flatten(&store, &vars).unwrap(), s.combined);
         // The optimiser steps with the combined gradient.
-        let before = flatten_values(&vars);
+        let before = values(&vars).unwrap();
         let mut opt = candle_nn::SGD::new(vars.iter().map(|v| v.1.clone()).collect(), 0.1).unwrap();
         opt.step(&store).unwrap();
-        let after = flatten_values(&vars);
+        let after = values(&vars).unwrap();
         for k in 0..before.len() {
             assert!((after[k] - (before[k] - 0.1 * s.combined[k])).abs() < 1e-6);
         }
-    }
-
-    fn flatten_values(vars: &[(String, Var)]) -> Vec<f32> {
-        vars.iter()
-            .flat_map(|(_, v)| {
-                v.as_tensor()
-                    .flatten_all()
-                    .unwrap()
-                    .to_vec1::<f32>()
-                    .unwrap()
-            })
-            .collect()
     }
 }

@@ -80,6 +80,8 @@ pub struct Train {
     pub max_grad_norm: f64,
     pub pcgrad: bool,
     pub normalize_advantages: bool,
+    /// Running mean/std normalisation of the networks' inputs (saved with checkpoints).
+    pub normalize_observations: bool,
 }
 
 /// Episode settings of the environment (SPEC section 3).
@@ -270,6 +272,21 @@ impl Config {
         {
             config.inlet.csv = Some(base_dir.join(csv));
         }
+        config.resolve()
+    }
+
+    /// A configuration saved by this program (a checkpoint's or a run's `config.toml`), loaded
+    /// as written: no defaults merged in, every key required.
+    pub fn from_saved(text: &str) -> Result<Resolved, ConfigError> {
+        let de = toml::de::Deserializer::parse(text).map_err(|e| ConfigError::Syntax {
+            path: "saved configuration".into(),
+            message: e.message().to_string(),
+        })?;
+        let config: Config =
+            serde_path_to_error::deserialize(de).map_err(|e| ConfigError::Key {
+                key: e.path().to_string(),
+                message: e.into_inner().message().to_string(),
+            })?;
         config.resolve()
     }
 

@@ -5,6 +5,7 @@
 //! `output` (frames, .npy, CSV) -> `sim` (the batched flow) -> `gpu` (kernels, context),
 //! with `config` and `waveform` beside them.
 
+pub mod checkpoint;
 pub mod config;
 pub mod env;
 pub mod gpu;

@@ -5,25 +5,8 @@
 mod common;
 
 use std::path::Path;
-use std::process::{Command, Output};
 
-fn bin(args: &[&str]) -> Output {
-    let _lock = common::gpu().0; // one GPU user at a time
-    Command::new(env!("CARGO_BIN_EXE_fluxswarm-gpu"))
-        .args(args)
-        .env("NODEVICE_SELECT", "1")
-        .env("RUST_LOG", "info")
-        .output()
-        .expect("running fluxswarm-gpu")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
+use common::cli::{SMALL_SWARM, bin, text};
 
 /// A 10 mm channel at the paper's resolution.
 const SMALL: &[&str] = &[
@@ -37,26 +20,6 @@ const SMALL: &[&str] = &[
     "domain.failure_x_m=0.008",
     "--set",
     "swarm.count=0",
-];
-
-/// A 30 mm channel (success line 6 mm, failure line 24 mm) with 2 members, 3-step episodes.
-const SMALL_SWARM: &[&str] = &[
-    "--set",
-    "domain.nx=300",
-    "--set",
-    "domain.length_m=0.03",
-    "--set",
-    "domain.success_x_m=0.006",
-    "--set",
-    "domain.failure_x_m=0.024",
-    "--set",
-    "swarm.count=2",
-    "--set",
-    "swarm.grid_rows=1",
-    "--set",
-    "swarm.grid_centre_x_m=0.015",
-    "--set",
-    "env.max_steps=3",
 ];
 
 #[test]

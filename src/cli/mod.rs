@@ -2,6 +2,7 @@
 
 mod bench;
 mod common;
+mod eval;
 mod info;
 mod rollout;
 mod simulate;
@@ -28,10 +29,12 @@ pub enum Command {
     Simulate(simulate::SimulateArgs),
     /// Measure environment steps per second per batch size at the configured grid.
     Bench(bench::BenchArgs),
-    /// Run a baseline policy for K episodes and write episodes, swarm and trajectory CSVs.
+    /// Run a baseline or trained policy for K episodes and write episodes, swarm and trajectory CSVs.
     Rollout(rollout::RolloutArgs),
-    /// Train the swarm with MOMAPPO + PCGrad and write episodes.csv and updates.csv.
+    /// Train the swarm with MOMAPPO + PCGrad: logs, TensorBoard events, checkpoints, --resume.
     Train(train::TrainArgs),
+    /// Run a trained checkpoint for K episodes and write the same files as rollout.
+    Eval(eval::EvalArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -41,5 +44,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(a) => bench::run(a),
         Command::Rollout(a) => rollout::run(a),
         Command::Train(a) => train::run(a),
+        Command::Eval(a) => eval::run(a),
     }
 }

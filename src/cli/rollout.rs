@@ -1,17 +1,21 @@
-//! `fluxswarm-gpu rollout`: runs a baseline policy in E environments until K episodes have
-//! finished (over all environments) and writes `episodes.csv`, `swarm.csv`,
-//! `trajectories.csv` (SPEC section 7), `config.toml` and frames of environment 0
-//! (`frames/env0_ep<episode:04>_s<step:06>.png`).
+//! `fluxswarm-gpu rollout` (and `eval`): runs a baseline or a trained policy in E environments
+//! until K episodes have finished (over all environments) and writes `episodes.csv`,
+//! `swarm.csv`, `trajectories.csv` (SPEC section 7), `config.toml` and frames of environment 0
+//! (`frames/env0_ep<episode:04>_s<step:06>.png`). A trained policy brings its configuration
+//! from its checkpoint, so it runs in the physics it was trained in.
 
 use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use clap::Args;
+use fluxswarm_gpu::checkpoint::{self, Archive};
+use fluxswarm_gpu::config::{Config, Resolved};
 use fluxswarm_gpu::env::policy::Baseline;
 use fluxswarm_gpu::env::rng::Rng;
-use fluxswarm_gpu::env::{SwarmEnv, reward};
+use fluxswarm_gpu::env::{OBS_DIM, SwarmEnv, reward};
 use fluxswarm_gpu::gpu::params::{GpuMember, GpuMemberDiag};
+use fluxswarm_gpu::learn::mappo::Learner;
 use fluxswarm_gpu::output::episodes::EpisodesCsv;
 use fluxswarm_gpu::output::frame::{self, MemberMark};
 use fluxswarm_gpu::output::run_dir;
@@ -23,9 +27,13 @@ use super::common::ConfigArgs;
 pub struct RolloutArgs {
     #[command(flatten)]
     pub common: ConfigArgs,
-    /// upstream, wall, zero or random (trained checkpoints arrive with `train`).
+    /// upstream, wall, zero, random, or a trained checkpoint: a `.safetensors` file or a
+    /// `train` run directory (its newest checkpoint).
     #[arg(long)]
     pub policy: String,
+    /// With a trained policy: act with the mean action instead of sampling.
+    #[arg(long)]
+    pub deterministic: bool,
     #[arg(long, default_value_t = 1)]
     pub envs: usize,
     /// Finished episodes to collect, over all environments.
@@ -41,15 +49,69 @@ pub struct RolloutArgs {
     pub frames_every: u64,
 }
 
+/// What chooses the actions.
+enum Policy {
+    Baseline(Baseline, Rng),
+    Trained {
+        learner: Box<Learner>,
+        deterministic: bool,
+    },
+}
+
+impl Policy {
+    fn act_all(&mut self, obs: &[f32]) -> anyhow::Result<Vec<[f32; 2]>> {
+        Ok(match self {
+            Policy::Baseline(b, rng) => b.act_all(obs, rng),
+            Policy::Trained {
+                learner,
+                deterministic,
+            } => learner.act(&learner.normalize(obs), *deterministic)?.0,
+        })
+    }
+}
+
+/// The trained policy of a checkpoint (a file or a run directory) and its configuration.
+fn load_trained(path: &std::path::Path, seed: u64) -> anyhow::Result<(Learner, Resolved)> {
+    let file = checkpoint::locate(path)?;
+    let archive = Archive::load(&file)?;
+    let resolved = Config::from_saved(archive.meta("config")?)
+        .with_context(|| format!("the configuration saved in {}", file.display()))?;
+    let agents = resolved.config.swarm.count as usize;
+    let mut learner = Learner::new(agents, OBS_DIM, resolved.config.train.clone(), seed)?;
+    learner.load_state(&archive)?;
+    log::info!("policy: {}", file.display());
+    Ok((learner, resolved))
+}
+
 pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
-    let resolved = args.common.load()?;
-    let policy: Baseline = match args.policy.parse() {
-        Ok(p) => p,
-        Err(e) if std::path::Path::new(&args.policy).exists() => bail!(
-            "{}: loading trained checkpoints arrives with the learner (`train`); {e}",
-            args.policy
-        ),
-        Err(e) => bail!("{e}"),
+    let (resolved, mut policy) = match args.policy.parse::<Baseline>() {
+        Ok(b) => {
+            if args.deterministic {
+                bail!(
+                    "--deterministic applies to trained policies; {} has no noise to remove",
+                    b.name()
+                );
+            }
+            let rng = Rng::new(args.seed.wrapping_add(0x9E37));
+            (args.common.load()?, Policy::Baseline(b, rng))
+        }
+        Err(e) => {
+            let path = std::path::Path::new(&args.policy);
+            if !path.exists() {
+                bail!("{e}, or the path of a trained checkpoint");
+            }
+            if args.common.config.is_some() || !args.common.sets.is_empty() {
+                bail!(
+                    "a trained policy runs in the configuration it was trained with (saved in its checkpoint): drop --config/--set"
+                );
+            }
+            let (learner, resolved) = load_trained(path, args.seed)?;
+            let policy = Policy::Trained {
+                learner: Box::new(learner),
+                deterministic: args.deterministic,
+            };
+            (resolved, policy)
+        }
     };
     if resolved.config.swarm.count == 0 {
         bail!("rollout needs a swarm: swarm.count is 0");
@@ -73,7 +135,6 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
         .context("writing config.toml")?;
     let ctx = args.common.open_gpu()?;
     let mut env = SwarmEnv::new(&ctx, &resolved, args.envs, args.seed)?;
-    let mut rng = Rng::new(args.seed.wrapping_add(0x9E37));
     let c = &resolved.config;
     let n = env.n_agents();
     let dt = c.time.control_dt_s;
@@ -181,7 +242,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
     let mut steps_total = 0u64;
     let start = std::time::Instant::now();
     while finished < args.episodes {
-        let actions = policy.act_all(&obs, &mut rng);
+        let actions = policy.act_all(&obs)?;
         // Inlet velocity at the end of this step, taken before any environment resets.
         let inlet_after: Vec<f64> = (0..args.envs)
             .map(|e| env.batch().inlet_u_after(e, dt))

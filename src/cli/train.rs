@@ -1,20 +1,28 @@
-//! `fluxswarm-gpu train`: MOMAPPO with PCGrad on the swarm environment. Writes `config.toml`
-//! (the resolved configuration, headed by the seed, batch, adapter and version as comments, so
-//! it loads back with `--config`), `episodes.csv` and `updates.csv` (SPEC section 7), with a
-//! progress bar of global steps, steps/s, ETA, success rate and the latest episode metrics.
-//! Not yet: checkpoints, `--resume`, TensorBoard event files, Ctrl-C handling (issue 4).
+//! `fluxswarm-gpu train`: MOMAPPO with PCGrad on the swarm environment. A run directory holds
+//! `config.toml` (the resolved configuration, headed by the seed, batch, adapter and version as
+//! comments, so it loads back with `--config`), `episodes.csv` and `updates.csv` (SPEC section
+//! 7), a TensorBoard event file of the same scalars, and `checkpoints/update-NNNNNNN.safetensors`
+//! (every K updates, at the end and on Ctrl-C; the newest three are kept). A checkpoint holds
+//! the learner, the environments and the run's counters, including how many bytes of each log
+//! belong to it, so `--resume DIR` cuts the logs back to that point and continues exactly as
+//! the uninterrupted run would have (same adapter).
 
 use std::collections::VecDeque;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, bail};
 use clap::Args;
+use fluxswarm_gpu::checkpoint::{self, Archive, CheckpointError};
+use fluxswarm_gpu::config::{Config, Resolved};
 use fluxswarm_gpu::env::{GpuSwarmEnv, OBS_DIM, Outcome, SwarmEnv};
 use fluxswarm_gpu::learn::env::MultiAgentEnv;
-use fluxswarm_gpu::learn::mappo::{Learner, TrainConfig};
+use fluxswarm_gpu::learn::mappo::{Iteration, Learner, TrainConfig};
 use fluxswarm_gpu::output::episodes::EpisodesCsv;
 use fluxswarm_gpu::output::run_dir;
+use fluxswarm_gpu::output::tensorboard::EventWriter;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::common::ConfigArgs;
@@ -23,89 +31,155 @@ use super::common::ConfigArgs;
 pub struct TrainArgs {
     #[command(flatten)]
     pub common: ConfigArgs,
-    /// Environments trained on together.
-    #[arg(long, default_value_t = 4)]
-    pub envs: usize,
-    /// Global environment steps (environments x control steps each); the paper's is 4 x 27,000.
-    #[arg(long, default_value_t = 108_000)]
-    pub steps: u64,
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    /// Environments trained on together [default: 4].
+    #[arg(long)]
+    pub envs: Option<usize>,
+    /// Global environment steps (environments x control steps each); the paper's is 4 x 27,000
+    /// [default: 108000]. With --resume: the new total (default: the run's own).
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// Seed of the networks, the environments and the sampling [default: 0].
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Average the three actor gradients instead of PCGrad (the paper's ablation).
     #[arg(long)]
     pub no_pcgrad: bool,
     /// Output directory (default runs/train-<YYYYmmdd-HHMMSS>).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Continue the run in DIR from its newest checkpoint (its configuration, seed and
+    /// environments; only --steps and --adapter may be given with it).
+    #[arg(long, value_name = "DIR")]
+    pub resume: Option<PathBuf>,
+    /// Write a checkpoint every K updates (and always at the end and on Ctrl-C).
+    #[arg(long, default_value_t = 25, value_name = "K")]
+    pub checkpoint_every: u64,
+}
+
+const UPDATES_HEADER: &str = "update,global_step,loss_progress,loss_energy,loss_smoothness,value_loss,entropy,mean_log_std,cos_pe,cos_ps,cos_es,conflict_pe,conflict_ps,conflict_es,sim_s,learn_s";
+
+/// Checkpoints kept in `checkpoints/` (older ones are deleted after a newer one is written).
+const KEEP: usize = 3;
+
+/// What fixes a run: its directory, configuration, seed, batch and budget.
+struct Plan {
+    out: PathBuf,
+    resolved: Resolved,
+    seed: u64,
+    envs: usize,
+    steps: u64,
+}
+
+/// The counters a checkpoint carries besides the learner and the environments.
+#[derive(Default)]
+struct Progress {
+    update: u64,
+    global: u64,
+    sim_s: f64,
+    learn_s: f64,
+}
+
+/// The run's open log files.
+struct Logs {
+    episodes: EpisodesCsv,
+    updates: std::io::BufWriter<std::fs::File>,
+    events: EventWriter,
 }
 
 pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
-    if args.no_pcgrad {
-        args.common.sets.push("train.pcgrad=false".into());
+    if args.checkpoint_every == 0 {
+        bail!("--checkpoint-every must be at least 1 (checkpoints are also written at the end)");
     }
-    let resolved = args.common.load()?;
-    if resolved.config.swarm.count == 0 {
-        bail!("train needs a swarm: swarm.count is 0");
-    }
-    if args.envs == 0 || args.steps == 0 {
-        bail!("--envs and --steps must be positive");
-    }
-    let out = run_dir::prepare(
-        &args
-            .out
-            .clone()
-            .unwrap_or_else(|| run_dir::default_dir("train")),
-        &[],
-    )?;
+    let resumed = match &args.resume {
+        Some(dir) => Some(open_checkpoint(dir, &args)?),
+        None => None,
+    };
+    let plan = match &resumed {
+        Some((dir, archive)) => resume_plan(dir, archive, &args)?,
+        None => fresh_plan(&mut args)?,
+    };
     let ctx = args.common.open_gpu()?;
-    let header = format!(
-        "# fluxswarm-gpu {} train: seed {}, {} environments, {} global steps, adapter {}\n",
-        env!("CARGO_PKG_VERSION"),
-        args.seed,
-        args.envs,
-        args.steps,
-        ctx.describe()
-    );
-    std::fs::write(out.join("config.toml"), header + &resolved.config.to_toml())
-        .context("writing config.toml")?;
-
-    let swarm = SwarmEnv::new(&ctx, &resolved, args.envs, args.seed)?;
+    let swarm = SwarmEnv::new(&ctx, &plan.resolved, plan.envs, plan.seed)?;
     let mut env = GpuSwarmEnv {
         env: swarm,
         ctx: &ctx,
     };
-    let cfg: TrainConfig = resolved.config.train.clone();
-    let mut learner = Learner::new(env.n_agents(), OBS_DIM, cfg, args.seed)?;
+    let cfg: TrainConfig = plan.resolved.config.train.clone();
+    let mut learner = Learner::new(env.n_agents(), OBS_DIM, cfg, plan.seed)?;
     let mut obs = env.reset()?;
-
-    let create = |name: &str| -> anyhow::Result<std::io::BufWriter<std::fs::File>> {
-        let f =
-            std::fs::File::create(out.join(name)).with_context(|| format!("creating {name}"))?;
-        Ok(std::io::BufWriter::new(f))
+    let ck_dir = plan.out.join("checkpoints");
+    let (mut progress, mut logs) = match &resumed {
+        Some((_, archive)) => {
+            learner.load_state(archive)?;
+            env.load_state(archive)?;
+            obs = archive.f32("train.obs", Some(obs.len()))?;
+            let p = Progress {
+                update: archive.meta_parse("update")?,
+                global: archive.meta_parse("global_step")?,
+                sim_s: archive.meta_parse("sim_s")?,
+                learn_s: archive.meta_parse("learn_s")?,
+            };
+            log::info!(
+                "resuming {} at update {}, {} of {} global steps",
+                plan.out.display(),
+                p.update,
+                p.global,
+                plan.steps
+            );
+            (p, reopen_logs(&plan.out, archive)?)
+        }
+        None => {
+            let header = format!(
+                "# fluxswarm-gpu {} train: seed {}, {} environments, {} global steps, adapter {}\n",
+                env!("CARGO_PKG_VERSION"),
+                plan.seed,
+                plan.envs,
+                plan.steps,
+                ctx.describe()
+            );
+            std::fs::write(
+                plan.out.join("config.toml"),
+                header + &plan.resolved.config.to_toml(),
+            )
+            .context("writing config.toml")?;
+            (Progress::default(), create_logs(&plan.out)?)
+        }
     };
-    let mut episodes_csv = EpisodesCsv::create(&out, true).context("creating episodes.csv")?;
-    let mut updates_csv = create("updates.csv")?;
-    writeln!(
-        updates_csv,
-        "update,global_step,loss_progress,loss_energy,loss_smoothness,value_loss,entropy,mean_log_std,cos_pe,cos_ps,cos_es,conflict_pe,conflict_ps,conflict_es,sim_s,learn_s"
-    )?;
 
-    let bar = ProgressBar::new(args.steps);
+    let interrupted = Arc::new(AtomicBool::new(false));
+    {
+        let flag = interrupted.clone();
+        let set = ctrlc::set_handler(move || {
+            if flag.swap(true, Ordering::SeqCst) {
+                eprintln!("\nsecond Ctrl-C: stopping without a checkpoint");
+                std::process::exit(130);
+            }
+            eprintln!(
+                "\nCtrl-C: finishing this update, then writing a checkpoint (Ctrl-C again to stop at once)"
+            );
+        });
+        if let Err(e) = set {
+            log::warn!("Ctrl-C will not write a checkpoint: {e}");
+        }
+    }
+
+    let bar = ProgressBar::new(plan.steps);
     bar.set_style(
         ProgressStyle::with_template("{bar:30} {pos}/{len} steps  {per_sec}  eta {eta}  {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    bar.set_position(progress.global.min(plan.steps));
+    bar.reset_eta();
     let mut recent: VecDeque<(bool, [f64; 3])> = VecDeque::new();
-    let (mut global, mut update) = (0u64, 0u64);
-    let (mut sim_total, mut learn_total) = (0.0, 0.0);
-    while global < args.steps {
+    let mut saved_at = progress.update;
+    while progress.global < plan.steps && !interrupted.load(Ordering::SeqCst) {
         let it = learner.iterate(&mut env, &mut obs)?;
-        global += it.env_steps as u64;
-        update += 1;
-        sim_total += it.sim_s;
-        learn_total += it.learn_s;
+        progress.global += it.env_steps as u64;
+        progress.update += 1;
+        progress.sim_s += it.sim_s;
+        progress.learn_s += it.learn_s;
+        log_update(&mut logs, &progress, &it)?;
         for s in &it.episodes {
-            episodes_csv.write(global, s)?;
             recent.push_back((
                 s.outcome == Outcome::Success,
                 [s.progress, s.energy, s.smoothness],
@@ -114,26 +188,6 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
                 recent.pop_front();
             }
         }
-        let st = &it.stats;
-        writeln!(
-            updates_csv,
-            "{update},{global},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
-            st.loss[0],
-            st.loss[1],
-            st.loss[2],
-            st.value_loss,
-            st.entropy,
-            st.mean_log_std,
-            st.cosine[0],
-            st.cosine[1],
-            st.cosine[2],
-            st.conflict[0],
-            st.conflict[1],
-            st.conflict[2],
-            it.sim_s,
-            it.learn_s
-        )?;
-        updates_csv.flush()?;
         if !recent.is_empty() {
             let n = recent.len() as f64;
             let success = recent.iter().filter(|r| r.0).count() as f64 / n;
@@ -148,13 +202,272 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
                 m[2]
             ));
         }
-        bar.set_position(global.min(args.steps));
+        bar.set_position(progress.global.min(plan.steps));
+        if progress.update.is_multiple_of(args.checkpoint_every) {
+            save(&ck_dir, &plan, &progress, &mut logs, &learner, &env, &obs)?;
+            saved_at = progress.update;
+        }
     }
     bar.finish();
+    if saved_at != progress.update || resumed.is_none() && progress.update == 0 {
+        save(&ck_dir, &plan, &progress, &mut logs, &learner, &env, &obs)?;
+    }
     log::info!(
-        "{update} updates, {global} global steps: simulation {sim_total:.1} s, learner {learn_total:.1} s ({:.0} % of the time)",
-        100.0 * learn_total / (sim_total + learn_total).max(1e-9)
+        "{} updates, {} global steps: simulation {:.1} s, learner {:.1} s ({:.0} % of the time)",
+        progress.update,
+        progress.global,
+        progress.sim_s,
+        progress.learn_s,
+        100.0 * progress.learn_s / (progress.sim_s + progress.learn_s).max(1e-9)
     );
-    println!("{}", out.display());
+    if interrupted.load(Ordering::SeqCst) {
+        eprintln!(
+            "interrupted after update {}: continue with `fluxswarm-gpu train --resume {}`",
+            progress.update,
+            plan.out.display()
+        );
+        println!("{}", plan.out.display());
+        std::process::exit(130);
+    }
+    println!("{}", plan.out.display());
+    Ok(())
+}
+
+fn fresh_plan(args: &mut TrainArgs) -> anyhow::Result<Plan> {
+    if args.no_pcgrad {
+        args.common.sets.push("train.pcgrad=false".into());
+    }
+    let resolved = args.common.load()?;
+    if resolved.config.swarm.count == 0 {
+        bail!("train needs a swarm: swarm.count is 0");
+    }
+    let (envs, steps) = (args.envs.unwrap_or(4), args.steps.unwrap_or(108_000));
+    if envs == 0 || steps == 0 {
+        bail!("--envs and --steps must be positive");
+    }
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| run_dir::default_dir("train"));
+    if out.join("updates.csv").exists() || !checkpoint::list(&out.join("checkpoints")).is_empty() {
+        bail!(
+            "{} already holds a training run: continue it with --resume {0} or choose another --out",
+            out.display()
+        );
+    }
+    Ok(Plan {
+        out: run_dir::prepare(&out, &["checkpoints"])?,
+        resolved,
+        seed: args.seed.unwrap_or(0),
+        envs,
+        steps,
+    })
+}
+
+/// The newest readable checkpoint of run `dir`; a damaged newest file falls back to the one
+/// before it (with a warning), so a crash while writing loses at most K updates.
+fn open_checkpoint(dir: &Path, args: &TrainArgs) -> anyhow::Result<(PathBuf, Archive)> {
+    let c = &args.common;
+    let mut given = Vec::new();
+    if c.config.is_some() || !c.sets.is_empty() {
+        given.push("--config/--set");
+    }
+    for (flag, on) in [
+        ("--envs", args.envs.is_some()),
+        ("--seed", args.seed.is_some()),
+        ("--no-pcgrad", args.no_pcgrad),
+        ("--out", args.out.is_some()),
+    ] {
+        if on {
+            given.push(flag);
+        }
+    }
+    if !given.is_empty() {
+        bail!(
+            "--resume continues a run as it was started; {} cannot change it (only --steps, --adapter and --checkpoint-every can): drop {}, or start a new run without --resume",
+            given.join(", "),
+            if given.len() > 1 { "them" } else { "it" }
+        );
+    }
+    let files = checkpoint::list(&dir.join("checkpoints"));
+    if files.is_empty() {
+        bail!(
+            "{} has no checkpoints/update-*.safetensors to resume from: is it a `train` run directory?",
+            dir.display()
+        );
+    }
+    let mut last_err = None;
+    for f in files {
+        match Archive::load(&f) {
+            Ok(a) => {
+                if a.meta("kind").ok() != Some("train") {
+                    return Err(a.mismatch("it is not a train checkpoint").into());
+                }
+                return Ok((dir.to_path_buf(), a));
+            }
+            Err(e @ CheckpointError::Corrupt { .. }) => {
+                log::warn!("{e}; trying the one before it");
+                last_err = Some(e);
+            }
+            Err(e) => return Err(e.into()),
+        }
+    }
+    Err(last_err.expect("at least one file").into())
+}
+
+fn resume_plan(dir: &Path, archive: &Archive, args: &TrainArgs) -> anyhow::Result<Plan> {
+    let resolved = Config::from_saved(archive.meta("config")?)
+        .with_context(|| format!("the configuration saved in {}", archive.path().display()))?;
+    let steps = match args.steps {
+        Some(s) => s,
+        None => archive.meta_parse("steps")?,
+    };
+    Ok(Plan {
+        out: run_dir::prepare(dir, &["checkpoints"])?,
+        resolved,
+        seed: archive.meta_parse("seed")?,
+        envs: archive.meta_parse("envs")?,
+        steps,
+    })
+}
+
+fn create_logs(out: &Path) -> anyhow::Result<Logs> {
+    let episodes = EpisodesCsv::create(out, true).context("creating episodes.csv")?;
+    let f = std::fs::File::create(out.join("updates.csv")).context("creating updates.csv")?;
+    let mut updates = std::io::BufWriter::new(f);
+    writeln!(updates, "{UPDATES_HEADER}")?;
+    updates.flush()?;
+    let events = EventWriter::create(out).context("creating the TensorBoard event file")?;
+    Ok(Logs {
+        episodes,
+        updates,
+        events,
+    })
+}
+
+fn reopen_logs(out: &Path, archive: &Archive) -> anyhow::Result<Logs> {
+    let cut = |key: &str| archive.meta_parse::<u64>(key);
+    let episodes = EpisodesCsv::resume(out, true, cut("episodes_csv_bytes")?)
+        .context("reopening episodes.csv")?;
+    let f = run_dir::append_after(&out.join("updates.csv"), cut("updates_csv_bytes")?)
+        .context("reopening updates.csv")?;
+    let events = EventWriter::resume(
+        &out.join(archive.meta("events_file")?),
+        cut("events_bytes")?,
+    )
+    .context("reopening the TensorBoard event file")?;
+    Ok(Logs {
+        episodes,
+        updates: std::io::BufWriter::new(f),
+        events,
+    })
+}
+
+fn log_update(logs: &mut Logs, p: &Progress, it: &Iteration) -> anyhow::Result<()> {
+    for s in &it.episodes {
+        logs.episodes.write(p.global, s)?;
+        logs.events.scalars(
+            p.global,
+            &[
+                ("episode/progress", s.progress as f32),
+                ("episode/energy", s.energy as f32),
+                ("episode/smoothness", s.smoothness as f32),
+                ("episode/steps", s.steps as f32),
+                (
+                    "episode/success",
+                    (s.outcome == Outcome::Success) as u8 as f32,
+                ),
+            ],
+        )?;
+    }
+    let st = &it.stats;
+    writeln!(
+        logs.updates,
+        "{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+        p.update,
+        p.global,
+        st.loss[0],
+        st.loss[1],
+        st.loss[2],
+        st.value_loss,
+        st.entropy,
+        st.mean_log_std,
+        st.cosine[0],
+        st.cosine[1],
+        st.cosine[2],
+        st.conflict[0],
+        st.conflict[1],
+        st.conflict[2],
+        it.sim_s,
+        it.learn_s
+    )?;
+    logs.updates.flush()?;
+    let scalars: Vec<(&str, f32)> = [
+        ("loss/progress", st.loss[0]),
+        ("loss/energy", st.loss[1]),
+        ("loss/smoothness", st.loss[2]),
+        ("loss/value", st.value_loss),
+        ("policy/entropy", st.entropy),
+        ("policy/mean_log_std", st.mean_log_std),
+        ("pcgrad/cos_pe", st.cosine[0]),
+        ("pcgrad/cos_ps", st.cosine[1]),
+        ("pcgrad/cos_es", st.cosine[2]),
+        ("pcgrad/conflict_pe", st.conflict[0]),
+        ("pcgrad/conflict_ps", st.conflict[1]),
+        ("pcgrad/conflict_es", st.conflict[2]),
+        ("time/sim_s", it.sim_s),
+        ("time/learn_s", it.learn_s),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k, v as f32))
+    .collect();
+    logs.events.scalars(p.global, &scalars)?;
+    Ok(())
+}
+
+/// Writes `checkpoints/update-NNNNNNN.safetensors` atomically and prunes old ones.
+fn save(
+    dir: &Path,
+    plan: &Plan,
+    p: &Progress,
+    logs: &mut Logs,
+    learner: &Learner,
+    env: &GpuSwarmEnv<'_>,
+    obs: &[f32],
+) -> anyhow::Result<()> {
+    let mut a = Archive::new();
+    learner.save_state(&mut a)?;
+    env.save_state(&mut a)?;
+    a.put_f32("train.obs", &[obs.len()], obs);
+    a.set_meta("kind", "train");
+    a.set_meta("version", env!("CARGO_PKG_VERSION"));
+    a.set_meta("config", plan.resolved.config.to_toml());
+    a.set_meta("seed", plan.seed);
+    a.set_meta("envs", plan.envs);
+    a.set_meta("steps", plan.steps);
+    a.set_meta("update", p.update);
+    a.set_meta("global_step", p.global);
+    a.set_meta("sim_s", p.sim_s);
+    a.set_meta("learn_s", p.learn_s);
+    logs.updates.flush()?;
+    a.set_meta("episodes_csv_bytes", logs.episodes.bytes_written()?);
+    a.set_meta(
+        "updates_csv_bytes",
+        logs.updates.get_ref().metadata()?.len(),
+    );
+    a.set_meta("events_bytes", logs.events.flush()?);
+    let events_name = logs
+        .events
+        .path()
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    a.set_meta("events_file", events_name);
+    let path = dir.join(checkpoint::file_name(p.update));
+    a.save(&path)?;
+    log::debug!("checkpoint {}", path.display());
+    for old in checkpoint::list(dir).into_iter().skip(KEEP) {
+        let _ = std::fs::remove_file(old);
+    }
     Ok(())
 }

@@ -8,6 +8,7 @@
 //! with x_mid, half the centre and half-width of the analysis region (50 mm, 30 mm in the
 //! paper), U_peak the waveform's peak |U| (0.4 m/s) and p_k the four pressure samples.
 
+mod checkpoint;
 pub mod policy;
 pub mod reward;
 pub mod rng;
@@ -398,5 +399,13 @@ impl crate::learn::env::MultiAgentEnv for GpuSwarmEnv<'_> {
     fn step(&mut self, actions: &[[f32; 2]]) -> anyhow::Result<Transition> {
         let s = self.env.step(self.ctx, actions)?;
         Ok(s.transition)
+    }
+
+    fn save_state(&self, archive: &mut crate::checkpoint::Archive) -> anyhow::Result<()> {
+        Ok(self.env.save_state(self.ctx, archive, "env")?)
+    }
+
+    fn load_state(&mut self, archive: &crate::checkpoint::Archive) -> anyhow::Result<()> {
+        Ok(self.env.load_state(archive, "env")?)
     }
 }

@@ -1,6 +1,7 @@
 //! The environment interface the learner drives (it knows no GPU), and a small CPU
 //! environment with a known optimum for tests: point masses that must reach a target.
 
+use crate::checkpoint::Archive;
 pub use crate::env::Transition;
 use crate::env::rng::Rng;
 use crate::env::{EpisodeSummary, Outcome, reward};
@@ -12,6 +13,10 @@ pub trait MultiAgentEnv {
     fn obs_dim(&self) -> usize;
     fn reset(&mut self) -> anyhow::Result<Vec<f32>>;
     fn step(&mut self, actions: &[[f32; 2]]) -> anyhow::Result<Transition>;
+    /// Adds the whole state of every environment (after `reset`) to a checkpoint under `env.`.
+    fn save_state(&self, archive: &mut Archive) -> anyhow::Result<()>;
+    /// Restores what `save_state` wrote into environments of the same shape.
+    fn load_state(&mut self, archive: &Archive) -> anyhow::Result<()>;
 }
 
 /// N point masses per environment on a plane, starting at random around (3, 0), that should
@@ -163,5 +168,45 @@ impl MultiAgentEnv for PointMasses {
             t.obs.extend(self.observe(e));
         }
         Ok(t)
+    }
+
+    fn save_state(&self, archive: &mut Archive) -> anyhow::Result<()> {
+        let k = self.envs * self.agents;
+        archive.put_u64("env.rng", &[self.rng.0]);
+        archive.put_f64("env.pos", &[k, 2], &self.pos.concat());
+        archive.put_f64("env.vel", &[k, 2], &self.vel.concat());
+        let prev: Vec<f64> = self
+            .prev
+            .iter()
+            .flat_map(|p| p.unwrap_or([f64::NAN; 2]))
+            .collect();
+        archive.put_f64("env.prev", &[k, 2], &prev);
+        let steps: Vec<u64> = self.steps.iter().map(|s| *s as u64).collect();
+        archive.put_u64("env.steps", &steps);
+        archive.put_f64("env.sums", &[self.envs, 3], &self.sums.concat());
+        Ok(())
+    }
+
+    fn load_state(&mut self, archive: &Archive) -> anyhow::Result<()> {
+        let k = self.envs * self.agents;
+        let pairs = |v: Vec<f64>| -> Vec<[f64; 2]> { v.chunks(2).map(|c| [c[0], c[1]]).collect() };
+        self.pos = pairs(archive.f64("env.pos", Some(2 * k))?);
+        self.vel = pairs(archive.f64("env.vel", Some(2 * k))?);
+        self.prev = pairs(archive.f64("env.prev", Some(2 * k))?)
+            .into_iter()
+            .map(|p| Some(p).filter(|p| !p[0].is_nan()))
+            .collect();
+        self.steps = archive
+            .u64("env.steps", Some(self.envs))?
+            .iter()
+            .map(|s| *s as u32)
+            .collect();
+        self.sums = archive
+            .f64("env.sums", Some(3 * self.envs))?
+            .chunks(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect();
+        self.rng.0 = archive.u64("env.rng", Some(1))?[0];
+        Ok(())
     }
 }

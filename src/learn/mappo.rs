@@ -7,14 +7,17 @@
 //! `minibatches` random minibatches.
 
 use candle_core::{DType, Device, Tensor, Var};
-use candle_nn::{AdamW, Optimizer, ParamsAdamW, VarBuilder, VarMap};
+use candle_nn::{VarBuilder, VarMap};
 
+use super::adam::Adam;
 use super::env::MultiAgentEnv;
 use super::gae::{Rollout, gae};
 use super::nets::{Actor, Critic, gaussian_entropy, gaussian_log_prob};
+use super::normalizer::ObsNormalizer;
 use super::pcgrad::{average, pcgrad};
 use super::ppo::clipped_surrogate;
-use super::surgery::{flatten, named_vars, unflatten};
+use super::surgery::{flatten, named_vars, set_values, values};
+use crate::checkpoint::Archive;
 use crate::env::EpisodeSummary;
 use crate::env::rng::Rng;
 
@@ -57,19 +60,23 @@ pub struct Learner {
     critic: Critic,
     actor_vars: Vec<(String, Var)>,
     critic_vars: Vec<(String, Var)>,
-    opt_actor: AdamW,
-    opt_critic: AdamW,
+    opt_actor: Adam,
+    opt_critic: Adam,
+    /// Running observation statistics when `normalize_observations` is on.
+    normalizer: Option<ObsNormalizer>,
     rng: Rng,
     dev: Device,
 }
 
-fn adam(vars: &[(String, Var)], lr: f64) -> candle_core::Result<AdamW> {
-    let params = ParamsAdamW {
-        lr,
-        weight_decay: 0.0,
-        ..Default::default()
-    };
-    AdamW::new(vars.iter().map(|v| v.1.clone()).collect(), params)
+fn adam(vars: &[(String, Var)], lr: f64) -> Adam {
+    Adam::new(vars.iter().map(|v| v.1.elem_count()).sum(), lr)
+}
+
+/// One Adam step on `vars` with the flat gradient `g`.
+fn adam_step(opt: &mut Adam, vars: &[(String, Var)], g: &[f32]) -> candle_core::Result<()> {
+    let mut p = values(vars)?;
+    opt.step(&mut p, g);
+    set_values(vars, &p)
 }
 
 /// Re-initialises every parameter from `rng` (candle cannot seed its CPU generator), with
@@ -119,8 +126,11 @@ impl Learner {
         seed_parameters(&map, &mut rng)?;
         let actor_vars = named_vars(&map, "actor");
         let critic_vars = named_vars(&map, "critic");
-        let opt_actor = adam(&actor_vars, cfg.learning_rate)?;
-        let opt_critic = adam(&critic_vars, cfg.learning_rate)?;
+        let opt_actor = adam(&actor_vars, cfg.learning_rate);
+        let opt_critic = adam(&critic_vars, cfg.learning_rate);
+        let normalizer = cfg
+            .normalize_observations
+            .then(|| ObsNormalizer::new(obs_dim));
         Ok(Self {
             cfg,
             agents,
@@ -132,16 +142,108 @@ impl Learner {
             critic_vars,
             opt_actor,
             opt_critic,
+            normalizer,
             rng,
             dev,
         })
+    }
+
+    /// Observations [rows][D] as the networks see them (normalised when that is on).
+    pub fn normalize(&self, obs: &[f32]) -> Vec<f32> {
+        match &self.normalizer {
+            Some(n) => n.apply(obs),
+            None => obs.to_vec(),
+        }
+    }
+
+    /// Adds the learner's whole state under `learner.`: parameters by name, both optimisers'
+    /// moments and step counts, the observation normaliser and the RNG.
+    pub fn save_state(&self, archive: &mut Archive) -> anyhow::Result<()> {
+        for (name, var) in named_vars(&self.map, "") {
+            let data = values(&[(name.clone(), var.clone())])?;
+            archive.put_f32(&format!("learner.param.{name}"), var.dims(), &data);
+        }
+        for (tag, opt) in [("actor", &self.opt_actor), ("critic", &self.opt_critic)] {
+            let len = opt.m.len();
+            archive.put_f32(&format!("learner.adam.{tag}.m"), &[len], &opt.m);
+            archive.put_f32(&format!("learner.adam.{tag}.v"), &[len], &opt.v);
+            archive.put_u64(&format!("learner.adam.{tag}.t"), &[opt.t]);
+        }
+        if let Some(n) = &self.normalizer {
+            archive.put_f64("learner.obs_norm.count", &[1], &[n.count]);
+            archive.put_f64("learner.obs_norm.mean", &[n.dim()], &n.mean);
+            archive.put_f64("learner.obs_norm.var", &[n.dim()], &n.var);
+        }
+        archive.put_u64("learner.rng", &[self.rng.0]);
+        archive.put_u64("learner.shape", &[self.agents as u64, self.obs_dim as u64]);
+        Ok(())
+    }
+
+    /// Restores what [`Self::save_state`] wrote; the learner must have the same agents,
+    /// observation size and normalisation setting.
+    pub fn load_state(&mut self, archive: &Archive) -> anyhow::Result<()> {
+        let shape = archive.u64("learner.shape", Some(2))?;
+        if shape != [self.agents as u64, self.obs_dim as u64] {
+            return Err(archive
+                .mismatch(format!(
+                    "it was trained with {} agents and {} observations each, this run has {} and {}",
+                    shape[0], shape[1], self.agents, self.obs_dim
+                ))
+                .into());
+        }
+        let saved_norm = archive.shape("learner.obs_norm.mean").is_some();
+        if saved_norm != self.normalizer.is_some() {
+            return Err(archive
+                .mismatch(format!(
+                    "train.normalize_observations was {saved_norm} when it was written, {} now",
+                    !saved_norm
+                ))
+                .into());
+        }
+        // Read everything before changing anything, so a bad file leaves the learner intact.
+        let vars = named_vars(&self.map, "");
+        let mut params = Vec::with_capacity(vars.len());
+        for (name, var) in &vars {
+            params.push(archive.f32(&format!("learner.param.{name}"), Some(var.elem_count()))?);
+        }
+        let mut opts = Vec::new();
+        for (tag, opt) in [("actor", &self.opt_actor), ("critic", &self.opt_critic)] {
+            let len = Some(opt.m.len());
+            opts.push((
+                archive.f32(&format!("learner.adam.{tag}.m"), len)?,
+                archive.f32(&format!("learner.adam.{tag}.v"), len)?,
+                archive.u64(&format!("learner.adam.{tag}.t"), Some(1))?[0],
+            ));
+        }
+        let normalizer = match &self.normalizer {
+            Some(n) => Some(ObsNormalizer {
+                count: archive.f64("learner.obs_norm.count", Some(1))?[0],
+                mean: archive.f64("learner.obs_norm.mean", Some(n.dim()))?,
+                var: archive.f64("learner.obs_norm.var", Some(n.dim()))?,
+            }),
+            None => None,
+        };
+        let rng = archive.u64("learner.rng", Some(1))?[0];
+        for ((name, var), p) in vars.iter().zip(&params) {
+            set_values(&[(name.clone(), var.clone())], p)?;
+        }
+        for (opt, (m, v, t)) in [&mut self.opt_actor, &mut self.opt_critic]
+            .into_iter()
+            .zip(opts)
+        {
+            (opt.m, opt.v, opt.t) = (m, v, t);
+        }
+        self.normalizer = normalizer;
+        self.rng.0 = rng;
+        Ok(())
     }
 
     pub fn var_map(&self) -> &VarMap {
         &self.map
     }
 
-    /// Sampled (or mean) raw actions [E][N] and joint log-probabilities [E] for obs [E][N][D].
+    /// Sampled (or mean) raw actions [E][N] and joint log-probabilities [E] for network inputs
+    /// [E][N][D] (observations passed through [`Self::normalize`]).
     pub fn act(
         &mut self,
         obs: &[f32],
@@ -173,7 +275,7 @@ impl Learner {
         Ok((actions, lp))
     }
 
-    /// Values [B][N][3] of joint states given as observations [B][N][D].
+    /// Values [B][N][3] of joint states given as network inputs [B][N][D].
     pub fn values(&self, obs: &[f32]) -> anyhow::Result<Vec<f32>> {
         let b = obs.len() / (self.agents * self.obs_dim);
         let x = Tensor::from_slice(obs, (b, self.agents * self.obs_dim), &self.dev)?;
@@ -211,8 +313,12 @@ impl Learner {
         let mut episodes: Vec<EpisodeSummary> = Vec::new();
         let mut ended_prev = vec![false; ne];
         for t in 0..t_len {
-            let (actions, logp) = self.act(obs, false)?;
-            let v = self.values(obs)?;
+            if let Some(norm) = &mut self.normalizer {
+                norm.update(obs);
+            }
+            let x = self.normalize(obs);
+            let (actions, logp) = self.act(&x, false)?;
+            let v = self.values(&x)?;
             if t > 0 {
                 // V(s_t) bootstraps step t-1 where that episode went on.
                 for e in 0..ne {
@@ -223,7 +329,7 @@ impl Learner {
                     }
                 }
             }
-            obs_buf.extend_from_slice(obs);
+            obs_buf.extend_from_slice(&x);
             act_buf.extend_from_slice(&actions);
             logp_buf.extend(logp);
             values.extend_from_slice(&v);
@@ -236,7 +342,7 @@ impl Learner {
                 if tr.truncated[e]
                     && let Some(f) = &tr.final_obs[e]
                 {
-                    let vf = self.values(f)?;
+                    let vf = self.values(&self.normalize(f))?;
                     let dst = (t * ne + e) * per_env;
                     next_values[dst..dst + per_env].copy_from_slice(&vf);
                 }
@@ -249,7 +355,7 @@ impl Learner {
             div.extend_from_slice(&tr.diverged);
             *obs = tr.obs;
         }
-        let v_last = self.values(obs)?;
+        let v_last = self.values(&self.normalize(obs))?;
         for e in 0..ne {
             if !ended_prev[e] {
                 let dst = ((t_len - 1) * ne + e) * per_env;
@@ -364,14 +470,14 @@ impl Learner {
                     .map(|(a, b)| a + b)
                     .collect();
                 clip_norm(&mut g, self.cfg.max_grad_norm);
-                self.opt_actor.step(&unflatten(&g, &self.actor_vars)?)?;
+                adam_step(&mut self.opt_actor, &self.actor_vars, &g)?;
 
                 let x = o.reshape((b, n * d))?;
                 let v = self.critic.forward(&x)?.transpose(1, 2)?;
                 let value_loss = (v - &ret_t)?.sqr()?.mean_all()?.affine(1.5, 0.0)?; // 0.5 x 3 heads
                 let mut gc = flatten(&value_loss.backward()?, &self.critic_vars)?;
                 clip_norm(&mut gc, self.cfg.max_grad_norm);
-                self.opt_critic.step(&unflatten(&gc, &self.critic_vars)?)?;
+                adam_step(&mut self.opt_critic, &self.critic_vars, &gc)?;
 
                 stats.value_loss += value_loss.to_scalar::<f32>()? as f64;
                 stats.entropy += entropy.to_scalar::<f32>()? as f64;
@@ -423,6 +529,68 @@ mod tests {
             .unwrap();
         let var = w.iter().map(|x| (*x as f64).powi(2)).sum::<f64>() / w.len() as f64;
         assert!((var - 0.25).abs() < 0.03, "{var}");
+    }
+
+    fn small_cfg() -> TrainConfig {
+        TrainConfig {
+            rollout_steps: 8,
+            minibatches: 2,
+            epochs: 2,
+            normalize_observations: true,
+            ..TrainConfig::default()
+        }
+    }
+
+    #[test]
+    fn a_checkpoint_restores_learner_and_environment_exactly() {
+        use crate::learn::env::PointMasses;
+        let mut env = PointMasses::new(3, 2, 11);
+        let mut a = Learner::new(2, 8, small_cfg(), 4).unwrap();
+        let mut obs = env.reset().unwrap();
+        for _ in 0..2 {
+            a.iterate(&mut env, &mut obs).unwrap();
+        }
+        let mut archive = Archive::new();
+        a.save_state(&mut archive).unwrap();
+        env.save_state(&mut archive).unwrap();
+        let bytes = archive.to_bytes();
+        let loaded = Archive::from_bytes(&bytes, std::path::Path::new("mem")).unwrap();
+        // A learner with another seed and a fresh environment, restored.
+        let mut b = Learner::new(2, 8, small_cfg(), 99).unwrap();
+        let mut env_b = PointMasses::new(3, 2, 0);
+        env_b.reset().unwrap();
+        b.load_state(&loaded).unwrap();
+        env_b.load_state(&loaded).unwrap();
+        assert_eq!(a.normalizer, b.normalizer);
+        assert!(a.normalizer.as_ref().unwrap().count > 0.0);
+        let mut obs_b = obs.clone();
+        let ia = a.iterate(&mut env, &mut obs).unwrap();
+        let ib = b.iterate(&mut env_b, &mut obs_b).unwrap();
+        assert_eq!(ia.stats, ib.stats);
+        assert_eq!(ia.episodes, ib.episodes);
+        assert_eq!(obs, obs_b);
+        let flat = |l: &Learner| values(&named_vars(l.var_map(), "")).unwrap();
+        assert_eq!(flat(&a), flat(&b));
+        assert_eq!(a.opt_actor, b.opt_actor);
+    }
+
+    #[test]
+    fn a_checkpoint_of_another_swarm_size_or_setting_is_refused() {
+        let a = Learner::new(2, 8, small_cfg(), 4).unwrap();
+        let mut archive = Archive::new();
+        a.save_state(&mut archive).unwrap();
+        let mut three = Learner::new(3, 8, small_cfg(), 4).unwrap();
+        let before = values(&named_vars(three.var_map(), "")).unwrap();
+        let e = three.load_state(&archive).unwrap_err().to_string();
+        assert!(e.contains("does not fit") && e.contains("2 agents"), "{e}");
+        assert_eq!(before, values(&named_vars(three.var_map(), "")).unwrap());
+        let plain = TrainConfig {
+            normalize_observations: false,
+            ..small_cfg()
+        };
+        let mut b = Learner::new(2, 8, plain, 4).unwrap();
+        let e = b.load_state(&archive).unwrap_err().to_string();
+        assert!(e.contains("normalize_observations"), "{e}");
     }
 
     #[test]

@@ -2,14 +2,17 @@
 //! objective and agent with episode-end masking ([`gae`]), Gaussian policy log-probabilities
 //! and entropy ([`gaussian`], and as candle tensors in [`nets`]), PCGrad gradient surgery
 //! ([`pcgrad`], applied to candle gradients by [`surgery`]), the clipped surrogate ([`ppo`]) and
-//! the actor and critic ([`nets`]). The rollout buffer, the update loop, checkpoints and `train`
-//! build on these (issue 4, in progress).
+//! the actor and critic ([`nets`]), Adam with saveable moments ([`adam`]) and the running
+//! observation normaliser ([`normalizer`]). [`mappo`] runs rollouts and updates on any
+//! [`env::MultiAgentEnv`] and saves its whole state into a checkpoint.
 
+pub mod adam;
 pub mod env;
 pub mod gae;
 pub mod gaussian;
 pub mod mappo;
 pub mod nets;
+pub mod normalizer;
 pub mod pcgrad;
 pub mod ppo;
 pub mod surgery;

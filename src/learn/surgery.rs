@@ -49,6 +49,20 @@ pub fn values(vars: &[(String, Var)]) -> Result<Vec<f32>> {
     Ok(out)
 }
 
+/// Overwrites the variables in order from one flat vector (the inverse of [`values`]).
+pub fn set_values(vars: &[(String, Var)], flat: &[f32]) -> Result<()> {
+    let mut at = 0;
+    for (_, v) in vars {
+        let n = v.elem_count();
+        let t =
+            Tensor::from_slice(&flat[at..at + n], v.shape(), v.device())?.to_dtype(v.dtype())?;
+        v.set(&t)?;
+        at += n;
+    }
+    assert_eq!(at, flat.len(), "value count does not match the variables");
+    Ok(())
+}
+
 /// A `GradStore` holding `flat` split back over the variables.
 pub fn unflatten(flat: &[f32], vars: &[(String, Var)]) -> Result<GradStore> {
     let mut store = GradStore::default();

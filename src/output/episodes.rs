@@ -25,6 +25,20 @@ impl EpisodesCsv {
         Ok(Self { out, global_step })
     }
 
+    /// Continues `dir/episodes.csv` from its first `len` bytes (a resumed run).
+    pub fn resume(dir: &Path, global_step: bool, len: u64) -> std::io::Result<Self> {
+        let f = super::run_dir::append_after(&dir.join("episodes.csv"), len)?;
+        Ok(Self {
+            out: BufWriter::new(f),
+            global_step,
+        })
+    }
+
+    /// Bytes written so far (everything is flushed after each row).
+    pub fn bytes_written(&self) -> std::io::Result<u64> {
+        Ok(self.out.get_ref().metadata()?.len())
+    }
+
     /// Appends one finished episode (and flushes, so a run's file is readable while it goes).
     pub fn write(&mut self, global_step: u64, s: &EpisodeSummary) -> std::io::Result<()> {
         if self.global_step {

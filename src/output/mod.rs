@@ -4,4 +4,5 @@ pub mod episodes;
 pub mod frame;
 pub mod npy;
 pub mod run_dir;
+pub mod tensorboard;
 pub mod text;

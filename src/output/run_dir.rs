@@ -37,3 +37,12 @@ pub fn prepare(dir: &Path, subdirs: &[&str]) -> Result<PathBuf, OutputDirError> 
     let _ = std::fs::remove_file(&probe);
     Ok(dir.to_path_buf())
 }
+
+/// Opens `path` for appending after cutting it to `len` bytes: a resumed run drops what was
+/// written after its checkpoint, so nothing is logged twice.
+pub fn append_after(path: &Path, len: u64) -> std::io::Result<std::fs::File> {
+    let f = std::fs::OpenOptions::new().write(true).open(path)?;
+    f.set_len(len)?;
+    drop(f);
+    std::fs::OpenOptions::new().append(true).open(path)
+}

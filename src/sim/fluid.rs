@@ -13,6 +13,8 @@
 //! (MacCormack predictor and clamp extrema, vec4), w_u/w_v (diffused), p and modes [E][ny][nx], body [E][ny][nx] vec4 (chi, u_body, v_body, 0),
 //! inlet [E][S], poisson tables, divstar [E][nx], colstats [E][nx+1] vec4, health [E][2] vec4.
 
+mod checkpoint;
+
 use thiserror::Error;
 use wgpu::util::DeviceExt;
 
@@ -47,6 +49,8 @@ pub enum SimError {
     NoSuchEnv(usize),
     #[error("the batch needs at least one environment")]
     Empty,
+    #[error(transparent)]
+    Checkpoint(#[from] crate::checkpoint::CheckpointError),
 }
 
 /// One stage of the substep, for tests and timing by elimination.

@@ -2,6 +2,8 @@
 //! GPU tests serialised within a test binary, small configurations and deterministic noise.
 #![allow(dead_code)]
 
+pub mod cli;
+
 use std::sync::{Mutex, MutexGuard};
 
 use fluxswarm_gpu::config::{Config, Resolved};

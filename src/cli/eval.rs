@@ -1,0 +1,54 @@
+//! `fluxswarm-gpu eval --checkpoint PATH`: runs a trained policy (sampled, or its mean action
+//! with `--deterministic`) in the configuration saved with it and writes the same files as
+//! `rollout` (episodes.csv, swarm.csv, trajectories.csv, config.toml, frames).
+
+use std::path::PathBuf;
+
+use clap::Args;
+use fluxswarm_gpu::gpu::AdapterChoice;
+use fluxswarm_gpu::output::run_dir;
+
+use super::common::ConfigArgs;
+use super::rollout::{self, RolloutArgs};
+
+#[derive(Debug, Args)]
+pub struct EvalArgs {
+    /// A checkpoint file, or a `train` run directory (its newest checkpoint).
+    #[arg(long, value_name = "PATH")]
+    pub checkpoint: PathBuf,
+    /// Finished episodes to collect, over all environments.
+    #[arg(long, default_value_t = 8)]
+    pub episodes: u64,
+    /// Act with the policy's mean action instead of sampling.
+    #[arg(long)]
+    pub deterministic: bool,
+    #[arg(long, default_value_t = 4)]
+    pub envs: usize,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output directory (default runs/eval-<YYYYmmdd-HHMMSS>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write a frame of environment 0 every K control steps (0: none).
+    #[arg(long, default_value_t = 0, value_name = "K")]
+    pub frames_every: u64,
+    #[arg(long, value_enum, default_value_t = AdapterChoice::Auto)]
+    pub adapter: AdapterChoice,
+}
+
+pub fn run(args: EvalArgs) -> anyhow::Result<()> {
+    rollout::run(RolloutArgs {
+        common: ConfigArgs {
+            config: None,
+            sets: Vec::new(),
+            adapter: args.adapter,
+        },
+        policy: args.checkpoint.to_string_lossy().into_owned(),
+        deterministic: args.deterministic,
+        envs: args.envs,
+        episodes: args.episodes,
+        seed: args.seed,
+        out: Some(args.out.unwrap_or_else(|| run_dir::default_dir("eval"))),
+        frames_every: args.frames_every,
+    })
+}

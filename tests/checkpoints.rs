@@ -1,0 +1,296 @@
+//! Checkpoints as a user meets them: `train --resume` after a lost checkpoint continues exactly
+//! as an uninterrupted run (logs and final state bit for bit, on one adapter), Ctrl-C writes a
+//! checkpoint the run resumes from, `eval` and `rollout --policy` run a trained checkpoint, and
+//! damaged or misused checkpoints fail with the file named and a way out.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use common::cli::{SMALL_SWARM, bin, text};
+use fluxswarm_gpu::checkpoint::{self, Archive};
+
+/// 4-step rollouts, 2 minibatches: an update is 8 global steps at 2 environments.
+fn train_args<'a>(out: &'a str, steps: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec![
+        "train",
+        "--envs",
+        "2",
+        "--steps",
+        steps,
+        "--seed",
+        "5",
+        "--checkpoint-every",
+        "2",
+        "--out",
+        out,
+        "--set",
+        "train.rollout_steps=4",
+        "--set",
+        "train.minibatches=2",
+        "--set",
+        "train.normalize_observations=true",
+    ];
+    a.extend_from_slice(extra);
+    a.extend_from_slice(SMALL_SWARM);
+    a
+}
+
+fn read(path: &Path) -> String {
+    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// updates.csv without its two timing columns.
+fn updates_without_timing(dir: &Path) -> Vec<String> {
+    read(&dir.join("updates.csv"))
+        .lines()
+        .map(|l| l.rsplitn(3, ',').nth(2).unwrap_or(l).to_string())
+        .collect()
+}
+
+fn newest(dir: &Path) -> PathBuf {
+    checkpoint::locate(dir).unwrap()
+}
+
+#[test]
+fn resume_after_a_lost_checkpoint_matches_an_uninterrupted_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    let (a_s, b_s) = (a.to_str().unwrap(), b.to_str().unwrap());
+    let o = bin(&train_args(a_s, "48", &[]));
+    assert!(o.status.success(), "{}", text(&o));
+    // b stops after 5 updates (checkpoints at 2, 4 and 5); losing the last checkpoint leaves
+    // update 5 in the logs with no state behind it.
+    let o = bin(&train_args(b_s, "40", &[]));
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(updates_without_timing(&b).len(), 1 + 5);
+    std::fs::remove_file(b.join("checkpoints").join(checkpoint::file_name(5))).unwrap();
+    let o = bin(&["train", "--resume", b_s, "--steps", "48"]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("resuming") && text(&o).contains("update 4"));
+
+    assert_eq!(read(&a.join("episodes.csv")), read(&b.join("episodes.csv")));
+    let ua = updates_without_timing(&a);
+    assert_eq!(ua.len(), 1 + 6);
+    assert_eq!(ua, updates_without_timing(&b));
+    // The final states agree bit for bit: networks, optimiser, normaliser, RNGs, fields,
+    // members, episode clocks.
+    let (ca, cb) = (
+        Archive::load(&newest(&a)).unwrap(),
+        Archive::load(&newest(&b)).unwrap(),
+    );
+    assert_eq!(ca.meta("update").unwrap(), "6");
+    for name in [
+        "learner.param.actor.l1.weight",
+        "learner.param.critic.l2.bias",
+        "learner.adam.actor.m",
+        "learner.adam.critic.v",
+        "learner.obs_norm.var",
+        "env.fluid.u",
+        "env.fluid.p",
+        "env.fluid.members",
+        "env.previous_action",
+        "train.obs",
+    ] {
+        let (x, y) = if name.contains("obs_norm") || name == "env.previous_action" {
+            let f = |c: &Archive| {
+                c.f64(name, None)
+                    .unwrap()
+                    .iter()
+                    .map(|v| v.to_bits())
+                    .collect::<Vec<_>>()
+            };
+            (f(&ca), f(&cb))
+        } else {
+            let f = |c: &Archive| {
+                c.f32(name, None)
+                    .unwrap()
+                    .iter()
+                    .map(|v| v.to_bits() as u64)
+                    .collect::<Vec<_>>()
+            };
+            (f(&ca), f(&cb))
+        };
+        assert!(!x.is_empty(), "{name}");
+        assert_eq!(x, y, "{name} differs after resume");
+    }
+    for name in ["learner.rng", "env.rng", "env.episode", "env.episode_step"] {
+        assert_eq!(
+            ca.u64(name, None).unwrap(),
+            cb.u64(name, None).unwrap(),
+            "{name}"
+        );
+    }
+    // Only the newest three checkpoints are kept.
+    assert_eq!(checkpoint::list(&a.join("checkpoints")).len(), 3);
+}
+
+#[test]
+fn ctrl_c_checkpoints_and_the_run_resumes_from_there() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let out_s = out.to_str().unwrap();
+    let _lock = common::gpu().0;
+    let mut args = train_args(out_s, "100000", &[]);
+    args[8] = "1000"; // --checkpoint-every: only Ctrl-C writes one
+    let child = Command::new(env!("CARGO_BIN_EXE_fluxswarm-gpu"))
+        .args(&args)
+        .env("NODEVICE_SELECT", "1")
+        .env("RUST_LOG", "info")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while std::fs::read_to_string(out.join("updates.csv"))
+        .map(|s| s.lines().count() < 3)
+        .unwrap_or(true)
+    {
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "no updates logged"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let o = child.wait_with_output().unwrap();
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(130), "{t}");
+    assert!(t.contains("--resume"), "says how to continue: {t}");
+    let ck = Archive::load(&newest(&out)).unwrap();
+    let update: u64 = ck.meta_parse("update").unwrap();
+    let logged = read(&out.join("updates.csv")).lines().count() as u64 - 1;
+    assert!(
+        update >= 2 && update == logged,
+        "checkpoint {update}, logged {logged}"
+    );
+    drop(_lock);
+    let target = ((update + 2) * 8).to_string();
+    let o = bin(&["train", "--resume", out_s, "--steps", &target]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(
+        read(&out.join("updates.csv")).lines().count() as u64,
+        1 + update + 2
+    );
+}
+
+#[test]
+fn eval_and_rollout_run_a_trained_checkpoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let o = bin(&train_args(run.to_str().unwrap(), "16", &[]));
+    assert!(o.status.success(), "{}", text(&o));
+    let mut episodes = Vec::new();
+    for name in ["e1", "e2"] {
+        let out = dir.path().join(name);
+        let o = bin(&[
+            "eval",
+            "--checkpoint",
+            run.to_str().unwrap(),
+            "--episodes",
+            "2",
+            "--envs",
+            "2",
+            "--deterministic",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        for f in [
+            "episodes.csv",
+            "swarm.csv",
+            "trajectories.csv",
+            "config.toml",
+        ] {
+            assert!(out.join(f).exists(), "{f}");
+        }
+        episodes.push(read(&out.join("episodes.csv")));
+    }
+    assert_eq!(episodes[0], episodes[1], "the mean action is deterministic");
+    assert_eq!(episodes[0].lines().count(), 1 + 2);
+    // rollout takes the checkpoint file as its policy, in the checkpoint's configuration.
+    let out = dir.path().join("r");
+    let file = newest(&run);
+    let o = bin(&[
+        "rollout",
+        "--policy",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(read(&out.join("config.toml")).contains("count = 2"));
+    let o = bin(&[
+        "rollout",
+        "--policy",
+        file.to_str().unwrap(),
+        "--set",
+        "swarm.count=3",
+    ]);
+    assert!(
+        !o.status.success() && text(&o).contains("drop --config/--set"),
+        "{}",
+        text(&o)
+    );
+}
+
+#[test]
+fn damaged_and_misused_checkpoints_fail_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let run_s = run.to_str().unwrap();
+    let o = bin(&train_args(run_s, "32", &[]));
+    assert!(o.status.success(), "{}", text(&o));
+    let files = checkpoint::list(&run.join("checkpoints"));
+    assert_eq!(files.len(), 2, "updates 2 and 4");
+
+    // A truncated newest checkpoint: resume warns and falls back to the one before.
+    let bytes = std::fs::read(&files[0]).unwrap();
+    std::fs::write(&files[0], &bytes[..bytes.len() - 100]).unwrap();
+    let o = bin(&["train", "--resume", run_s, "--steps", "32"]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("is corrupt") && t.contains("update 2"), "{t}");
+
+    // Every checkpoint damaged: a clear error naming the file.
+    for f in checkpoint::list(&run.join("checkpoints")) {
+        let mut b = std::fs::read(&f).unwrap();
+        let last = b.len() - 1;
+        b[last] ^= 0x40;
+        std::fs::write(&f, b).unwrap();
+    }
+    let o = bin(&["train", "--resume", run_s, "--steps", "40"]);
+    let t = text(&o);
+    assert!(!o.status.success());
+    assert!(
+        t.contains("corrupt") && t.contains("checksum") && t.contains("update-"),
+        "{t}"
+    );
+    let o = bin(&["eval", "--checkpoint", run_s]);
+    assert!(
+        !o.status.success() && text(&o).contains("corrupt"),
+        "{}",
+        text(&o)
+    );
+
+    // Resume may not change the run, a fresh run may not overwrite one, and a directory
+    // without checkpoints is not a run.
+    let o = bin(&["train", "--resume", run_s, "--envs", "3"]);
+    assert!(text(&o).contains("--envs cannot change it"), "{}", text(&o));
+    let o = bin(&train_args(run_s, "8", &[]));
+    assert!(
+        text(&o).contains("already holds a training run"),
+        "{}",
+        text(&o)
+    );
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    let o = bin(&["train", "--resume", empty.to_str().unwrap()]);
+    assert!(text(&o).contains("no checkpoints"), "{}", text(&o));
+}

@@ -40,6 +40,9 @@ struct Row {
     swarm_s: f64,
     readback_s: f64,
     step_s: f64,
+    /// (kernel, dispatches per control step, median GPU time per control step (s), bytes per
+    /// control step), where the adapter has timestamps.
+    kernels: Vec<(String, u32, f64, u64)>,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -107,6 +110,7 @@ fn bench_one(
         batch.health(ctx)?;
         Ok(())
     })?;
+    let kernels = kernel_times(ctx, &mut batch)?;
     Ok(Row {
         envs,
         env_steps_per_s: envs as f64 / step_s,
@@ -117,7 +121,36 @@ fn bench_one(
         swarm_s,
         readback_s,
         step_s,
+        kernels,
     })
+}
+
+/// Per-kernel GPU times of one control step (median of three timestamped steps) with each
+/// kernel's dispatch count and bytes per control step; empty without timestamp support.
+fn kernel_times(
+    ctx: &GpuContext,
+    batch: &mut FluidBatch,
+) -> anyhow::Result<Vec<(String, u32, f64, u64)>> {
+    let mut runs = Vec::new();
+    for _ in 0..3 {
+        match batch.profile_step(ctx)? {
+            Some(t) => runs.push(t),
+            None => return Ok(Vec::new()),
+        }
+    }
+    let bytes = batch.bytes_per_dispatch();
+    Ok(runs[0]
+        .iter()
+        .enumerate()
+        .map(|(k, (name, count, _))| {
+            let t = median(runs.iter().map(|r| r[k].2).collect());
+            let b = bytes
+                .iter()
+                .find(|(e, _)| e == name)
+                .map_or(0, |(_, b)| *b * *count as u64);
+            (name.to_string(), *count, t, b)
+        })
+        .collect())
 }
 
 pub fn run(args: BenchArgs) -> anyhow::Result<()> {
@@ -157,6 +190,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         csv,
         "envs,env_steps_per_s,cell_updates_per_s,dispatches_per_substep,pressure_iters_per_substep,fluid_s,pressure_s,swarm_s,readback_s,adapter"
     )?;
+    let mut rows = Vec::new();
     for &envs in &args.envs {
         let r = bench_one(&ctx, &args, &resolved, envs)?;
         println!(
@@ -187,7 +221,71 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             adapter.replace('"', "'")
         )?;
         csv.flush()?;
+        rows.push(r);
     }
+    write_kernel_table(&out, &rows, &adapter)?;
     println!("{}", out.display());
+    Ok(())
+}
+
+/// Prints the per-kernel table and writes `kernels.csv`
+/// (`envs,kernel,dispatches_per_step,gpu_s_per_step,share,bytes_per_step,gb_per_s,adapter`).
+fn write_kernel_table(out: &std::path::Path, rows: &[Row], adapter: &str) -> anyhow::Result<()> {
+    if rows.iter().all(|r| r.kernels.is_empty()) {
+        println!(
+            "per-kernel times: this adapter has no timestamps inside passes (see the time split above)"
+        );
+        return Ok(());
+    }
+    let mut csv = std::fs::File::create(out.join("kernels.csv")).context("creating kernels.csv")?;
+    writeln!(
+        csv,
+        "envs,kernel,dispatches_per_step,gpu_s_per_step,share,bytes_per_step,gb_per_s,adapter"
+    )?;
+    for r in rows {
+        let total: f64 = r.kernels.iter().map(|k| k.2).sum();
+        println!(
+            "\nkernels at E = {} (GPU timestamps, one control step; sum {:.4} s of a {:.4} s step)",
+            r.envs, total, r.step_s
+        );
+        println!(
+            "{:>20} {:>8} {:>10} {:>7} {:>12} {:>8}",
+            "kernel", "per_step", "s/step", "share", "MB/step", "GB/s"
+        );
+        for (name, n, t, bytes) in &r.kernels {
+            let gbs = *bytes as f64 / t.max(1e-12) / 1e9;
+            println!(
+                "{:>20} {:>8} {:>10.4} {:>6.1}% {:>12.1} {:>8.2}",
+                name,
+                n,
+                t,
+                100.0 * t / total.max(1e-12),
+                *bytes as f64 / 1e6,
+                gbs
+            );
+            writeln!(
+                csv,
+                "{},{},{},{:.6},{:.4},{},{:.3},\"{}\"",
+                r.envs,
+                name,
+                n,
+                t,
+                t / total.max(1e-12),
+                bytes,
+                gbs,
+                adapter.replace('"', "'")
+            )?;
+        }
+        let bytes: u64 = r.kernels.iter().map(|k| k.3).sum();
+        println!(
+            "{:>20} {:>8} {:>10.4} {:>7} {:>12.1} {:>8.2}",
+            "all",
+            r.kernels.iter().map(|k| k.1).sum::<u32>(),
+            total,
+            "",
+            bytes as f64 / 1e6,
+            bytes as f64 / total.max(1e-12) / 1e9
+        );
+    }
     Ok(())
 }

@@ -7,5 +7,6 @@ pub mod kernels;
 pub mod params;
 pub mod probe;
 pub mod shaders;
+pub mod traffic;
 
 pub use context::{AdapterChoice, GpuContext, GpuError};

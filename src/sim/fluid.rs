@@ -22,7 +22,7 @@ use super::{EnvHealth, Grid, poisson::PoissonTables};
 use crate::config::{Advection, Backtrace, Resolved};
 use crate::gpu::kernels::{
     Advect, Diagnostics, Dims, FieldBinding, FieldLayout, Members, PressureRhs, PressureSolve,
-    Project, map_and_read, read_buffer,
+    Project, Recorder, map_and_read, read_buffer,
 };
 use crate::gpu::params::{GpuMember, GpuMemberDiag, GpuParams, SubstepUniform};
 use crate::gpu::{GpuContext, GpuError};
@@ -778,7 +778,7 @@ impl FluidBatch {
         }
     }
 
-    fn record_stage(&self, pass: &mut wgpu::ComputePass<'_>, stage: Stage, bind: usize, s: usize) {
+    fn record_stage(&self, pass: &mut Recorder<'_>, stage: Stage, bind: usize, s: usize) {
         let (b, o, d) = (&self.bind[bind], self.offset(s), self.dims());
         let p = &self.pipelines;
         match stage {
@@ -802,55 +802,143 @@ impl FluidBatch {
                 label: Some("control step"),
             });
         {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            let pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("substeps"),
                 timestamp_writes: None,
             });
-            let mut cur = self.cur;
-            for s in 0..self.substeps {
-                if self.n_members > 0 {
-                    self.pipelines.members.record_paint(
-                        &mut pass,
-                        &self.bind[cur],
-                        self.offset(s),
-                        self.dims(),
-                    );
-                }
-                for stage in [
-                    Stage::Advect,
-                    Stage::PressureRhs,
-                    Stage::PressureSolve,
-                    Stage::Project,
-                ] {
-                    self.record_stage(&mut pass, stage, cur, s);
-                }
-                if self.n_members > 0 {
-                    self.pipelines.members.record_move(
-                        &mut pass,
-                        &self.bind[cur],
-                        self.offset(s),
-                        self.dims(),
-                    );
-                }
-                cur = 1 - cur;
-            }
-            // The diagnostics read the "out" side: the bind group whose output is `cur`.
-            self.record_stage(&mut pass, Stage::Diagnostics, 1 - cur, 0);
-            self.cur = cur;
+            self.record_control_step(&mut Recorder::new(pass));
         }
+        self.submit_and_read_health(ctx, enc)
+    }
+
+    /// Bytes of a whole buffer (all environments).
+    fn buffer_bytes(&self, which: FieldBinding) -> u64 {
+        let words = if which == FieldBinding::Poisson {
+            self.grid.ny * self.grid.ny + 2 * self.grid.n_cells()
+        } else {
+            self.words_per_env(which) * self.n_env
+        };
+        4 * words as u64
+    }
+
+    /// Compulsory memory traffic of one dispatch of each kernel (bytes): every buffer the
+    /// kernel's shader reads or writes (per naga), counted once per read and once per write at
+    /// its full size. An upper bound for kernels that touch part of a buffer (members).
+    pub fn bytes_per_dispatch(&self) -> Vec<(String, u64)> {
+        crate::gpu::traffic::kernel_accesses()
+            .into_iter()
+            .map(|k| {
+                let bytes = k
+                    .reads
+                    .iter()
+                    .chain(&k.writes)
+                    .filter_map(|b| FieldBinding::from_index(*b))
+                    .map(|b| self.buffer_bytes(b))
+                    .sum();
+                (k.entry, bytes)
+            })
+            .collect()
+    }
+
+    /// Whether the device can time each dispatch ([`Self::profile_step`]).
+    pub fn can_profile(&self) -> bool {
+        let need = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES;
+        self.ctx_device.features().contains(need)
+    }
+
+    /// One control step exactly as [`Self::step`] records it, with a GPU timestamp before and
+    /// after every dispatch; returns each kernel's dispatch count and total time over the step
+    /// (s), in the order of first use. `None` where the adapter has no timestamps inside passes.
+    pub fn profile_step(
+        &mut self,
+        ctx: &GpuContext,
+    ) -> Result<Option<Vec<(&'static str, u32, f64)>>, SimError> {
+        if !self.can_profile() {
+            return Ok(None);
+        }
+        let capacity = 2 * self.dispatches_per_control_step();
+        let set = self.ctx_device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("kernel timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count: capacity,
+        });
+        let bytes = capacity as u64 * 8;
+        let resolve = self.ctx_device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamps"),
+            size: bytes,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let staging = self.ctx_device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamps staging"),
+            size: bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        self.upload_inlet();
+        let mut enc = self.ctx_device.create_command_encoder(&Default::default());
+        let labels = {
+            let pass = enc.begin_compute_pass(&Default::default());
+            let mut rec = Recorder::timed(pass, &set, capacity);
+            self.record_control_step(&mut rec);
+            rec.labels().to_vec()
+        };
+        let used = 2 * labels.len() as u32;
+        enc.resolve_query_set(&set, 0..used, &resolve, 0);
+        enc.copy_buffer_to_buffer(&resolve, 0, &staging, 0, used as u64 * 8);
+        self.submit_and_read_health(ctx, enc)?;
+        let raw: Vec<u8> = map_and_read(ctx, &staging, used as u64 * 8)?;
+        let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&raw);
+        let period_s = self.ctx_queue.get_timestamp_period() as f64 * 1e-9;
+        let mut totals: Vec<(&'static str, u32, f64)> = Vec::new();
+        for (k, label) in labels.iter().enumerate() {
+            let dt = ticks[2 * k + 1].saturating_sub(ticks[2 * k]) as f64 * period_s;
+            match totals.iter_mut().find(|t| t.0 == *label) {
+                Some(t) => {
+                    t.1 += 1;
+                    t.2 += dt;
+                }
+                None => totals.push((label, 1, dt)),
+            }
+        }
+        Ok(Some(totals))
+    }
+
+    /// Records the S substeps and the diagnostics of one control step and advances the clocks.
+    fn record_control_step(&mut self, rec: &mut Recorder<'_>) {
+        let mut cur = self.cur;
+        for s in 0..self.substeps {
+            if self.n_members > 0 {
+                self.record_stage(rec, Stage::PaintBodies, cur, s);
+            }
+            for stage in [
+                Stage::Advect,
+                Stage::PressureRhs,
+                Stage::PressureSolve,
+                Stage::Project,
+            ] {
+                self.record_stage(rec, stage, cur, s);
+            }
+            if self.n_members > 0 {
+                self.record_stage(rec, Stage::MoveMembers, cur, s);
+            }
+            cur = 1 - cur;
+        }
+        // The diagnostics read the "out" side: the bind group whose output is `cur`.
+        self.record_stage(rec, Stage::Diagnostics, 1 - cur, 0);
+        self.cur = cur;
         for t in &mut self.time_s {
             *t += self.control_dt;
         }
         self.steps += 1;
-        self.submit_and_read_health(ctx, enc)
     }
 
     /// Health of the current state without stepping (e.g. of the initial state).
     pub fn health(&mut self, ctx: &GpuContext) -> Result<Vec<EnvHealth>, SimError> {
         let mut enc = self.ctx_device.create_command_encoder(&Default::default());
         {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            self.record_stage(&mut pass, Stage::Diagnostics, 1 - self.cur, 0);
+            let mut rec = Recorder::new(enc.begin_compute_pass(&Default::default()));
+            self.record_stage(&mut rec, Stage::Diagnostics, 1 - self.cur, 0);
         }
         self.submit_and_read_health(ctx, enc)
     }
@@ -895,7 +983,7 @@ impl FluidBatch {
     ) -> Result<(), SimError> {
         let mut enc = self.ctx_device.create_command_encoder(&Default::default());
         {
-            let mut pass = enc.begin_compute_pass(&Default::default());
+            let mut rec = Recorder::new(enc.begin_compute_pass(&Default::default()));
             for _ in 0..repeats {
                 for &stage in stages {
                     let bind = if stage == Stage::Diagnostics {
@@ -903,7 +991,7 @@ impl FluidBatch {
                     } else {
                         self.cur
                     };
-                    self.record_stage(&mut pass, stage, bind, s);
+                    self.record_stage(&mut rec, stage, bind, s);
                 }
             }
         }

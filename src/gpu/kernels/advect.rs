@@ -37,7 +37,7 @@ impl Advect {
 
     pub fn record(
         &self,
-        pass: &mut wgpu::ComputePass<'_>,
+        pass: &mut super::Recorder<'_>,
         bind: &wgpu::BindGroup,
         substep_offset: u32,
         dims: Dims,

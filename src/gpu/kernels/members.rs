@@ -21,7 +21,7 @@ impl Members {
     /// Writes the body field from the members' current positions and velocities.
     pub fn record_paint(
         &self,
-        pass: &mut wgpu::ComputePass<'_>,
+        pass: &mut super::Recorder<'_>,
         bind: &wgpu::BindGroup,
         offset: u32,
         d: Dims,
@@ -33,7 +33,7 @@ impl Members {
     /// Samples the projected flow, computes the forces and moves every member one substep.
     pub fn record_move(
         &self,
-        pass: &mut wgpu::ComputePass<'_>,
+        pass: &mut super::Recorder<'_>,
         bind: &wgpu::BindGroup,
         offset: u32,
         d: Dims,

@@ -48,6 +48,36 @@ pub enum FieldBinding {
     SwarmBox,
 }
 
+impl FieldBinding {
+    pub const ALL: [FieldBinding; 20] = [
+        Self::UIn,
+        Self::VIn,
+        Self::UOut,
+        Self::VOut,
+        Self::UHat,
+        Self::VHat,
+        Self::Pressure,
+        Self::Modes,
+        Self::Body,
+        Self::Inlet,
+        Self::Poisson,
+        Self::DivStar,
+        Self::ColStats,
+        Self::Health,
+        Self::WU,
+        Self::WV,
+        Self::Members,
+        Self::MemberDiag,
+        Self::Thrust,
+        Self::SwarmBox,
+    ];
+
+    /// The storage binding with this index (the uniforms 0 and 1 are not storage).
+    pub fn from_index(binding: u32) -> Option<Self> {
+        Self::ALL.into_iter().find(|b| *b as u32 == binding)
+    }
+}
+
 /// The bind group layout and pipeline layout shared by every fluid kernel.
 pub struct FieldLayout {
     pub bind_group_layout: wgpu::BindGroupLayout,
@@ -95,6 +125,42 @@ impl FieldLayout {
     }
 }
 
+/// A compute pass being recorded, optionally with a timestamp query before and after every
+/// dispatch (per-kernel GPU times in `bench`; needs the adapter's timestamp-inside-pass feature).
+pub struct Recorder<'a> {
+    pass: wgpu::ComputePass<'a>,
+    timer: Option<Timer<'a>>,
+}
+
+struct Timer<'a> {
+    set: &'a wgpu::QuerySet,
+    capacity: u32,
+    labels: Vec<&'static str>,
+}
+
+impl<'a> Recorder<'a> {
+    pub fn new(pass: wgpu::ComputePass<'a>) -> Self {
+        Self { pass, timer: None }
+    }
+
+    /// A recorder writing timestamps 2k and 2k + 1 around the k-th dispatch into `set`.
+    pub fn timed(pass: wgpu::ComputePass<'a>, set: &'a wgpu::QuerySet, capacity: u32) -> Self {
+        Self {
+            pass,
+            timer: Some(Timer {
+                set,
+                capacity,
+                labels: Vec::new(),
+            }),
+        }
+    }
+
+    /// The entry point of each timed dispatch, in order.
+    pub fn labels(&self) -> &[&'static str] {
+        self.timer.as_ref().map_or(&[], |t| &t.labels)
+    }
+}
+
 /// A compute pipeline built from `common.wgsl` + a kernel file, for one entry point.
 pub struct Pipeline {
     pipeline: wgpu::ComputePipeline,
@@ -125,16 +191,29 @@ impl Pipeline {
     /// Records one dispatch with the field bind group at the given substep slot.
     pub fn dispatch(
         &self,
-        pass: &mut wgpu::ComputePass<'_>,
+        rec: &mut Recorder<'_>,
         bind: &wgpu::BindGroup,
         substep_offset: u32,
         groups: [u32; 3],
     ) {
+        let pass = &mut rec.pass;
+        let slot = rec.timer.as_mut().map(|t| {
+            let k = 2 * t.labels.len() as u32;
+            assert!(k + 1 < t.capacity, "timestamp query set too small");
+            t.labels.push(self.label);
+            (t.set, k)
+        });
+        if let Some((set, k)) = slot {
+            pass.write_timestamp(set, k);
+        }
         pass.push_debug_group(self.label);
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, bind, &[substep_offset]);
         pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
         pass.pop_debug_group();
+        if let Some((set, k)) = slot {
+            pass.write_timestamp(set, k + 1);
+        }
     }
 }
 

@@ -17,7 +17,7 @@ impl PressureRhs {
 
     pub fn record(
         &self,
-        pass: &mut wgpu::ComputePass<'_>,
+        pass: &mut super::Recorder<'_>,
         bind: &wgpu::BindGroup,
         offset: u32,
         d: Dims,

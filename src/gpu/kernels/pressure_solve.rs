@@ -21,7 +21,7 @@ impl PressureSolve {
 
     pub fn record(
         &self,
-        pass: &mut wgpu::ComputePass<'_>,
+        pass: &mut super::Recorder<'_>,
         bind: &wgpu::BindGroup,
         offset: u32,
         d: Dims,

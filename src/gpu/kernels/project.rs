@@ -19,7 +19,7 @@ impl Project {
 
     pub fn record(
         &self,
-        pass: &mut wgpu::ComputePass<'_>,
+        pass: &mut super::Recorder<'_>,
         bind: &wgpu::BindGroup,
         offset: u32,
         d: Dims,

@@ -254,6 +254,9 @@ fn whole_control_step_matches_cpu() {
         p: vec![0.0; E * b.grid().n_cells()],
         body,
         divstar: vec![0.0; E * b.grid().nx],
+        members: Vec::new(),
+        actions: Vec::new(),
+        boxes: Vec::new(),
     };
     // The inlet values the batch will use for this step.
     let inlet: Vec<f32> = (0..E)

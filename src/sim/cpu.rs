@@ -514,7 +514,9 @@ pub fn diagnostics(
         .collect()
 }
 
-/// A whole batch advanced on the CPU with the twins (the reference for whole-step tests).
+/// A whole batch advanced on the CPU with the twins (the reference for whole-step tests, and
+/// the native yardstick of `benches/substep.rs`).
+#[derive(Debug, Clone)]
 pub struct CpuBatch {
     pub params: GpuParams,
     pub scheme: Advection,
@@ -524,13 +526,21 @@ pub struct CpuBatch {
     pub p: Vec<f32>,
     pub body: Vec<[f32; 4]>,
     pub divstar: Vec<f32>,
+    /// Members [E][N], their raw actions and the swarm boxes [E] (empty without a swarm).
+    pub members: Vec<GpuMember>,
+    pub actions: Vec<[f32; 2]>,
+    pub boxes: Vec<[f32; 4]>,
 }
 
 impl CpuBatch {
-    /// One control step; `inlet` is [E][S].
+    /// One control step; `inlet` is [E][S]. With members, each substep paints them into the
+    /// body field first and moves them after the projection, as the GPU step does.
     pub fn step(&mut self, inlet: &[f32]) -> Vec<EnvHealth> {
         let p = self.params;
         for s in 0..p.substeps as usize {
+            if p.n_members > 0 {
+                self.body = paint_bodies(&p, &self.members, &self.boxes);
+            }
             let (mut u, mut v) = advect(
                 &p,
                 self.scheme,
@@ -545,6 +555,11 @@ impl CpuBatch {
             let (mut modes, divstar) = pressure_rhs(&p, &self.poisson, &u, &v);
             pressure_solve(&p, &self.poisson, &mut modes);
             self.p = project(&p, &self.poisson, &modes, &mut u, &mut v);
+            if p.n_members > 0 {
+                let (m, _, boxes) = move_members(&p, &self.members, &self.actions, &self.p, &u, &v);
+                self.members = m;
+                self.boxes = boxes;
+            }
             self.u = u;
             self.v = v;
             self.divstar = divstar;

@@ -1,0 +1,95 @@
+//! One control step (20 substeps) at the configured grid with the swarm, two ways:
+//! - `gpu`: `FluidBatch::step` on the adapter `auto` picks (lavapipe on the development
+//!   machines), one submission and one read-back;
+//! - `native`: the yardstick, the plain-Rust CPU twins of the same kernels (`sim::cpu`),
+//!   one environment per rayon task. They are written for clarity (a fresh buffer per pass),
+//!   not tuned, so this measures what plain Rust does on these cores, not its limit.
+//!
+//! Size from the environment: FLUXSWARM_BENCH_ENVS (default 16) and FLUXSWARM_BENCH_NX
+//! (default 1000, the paper's grid; the channel length scales with it, so dx stays the paper's).
+//! CI runs it tiny: `FLUXSWARM_BENCH_ENVS=2 FLUXSWARM_BENCH_NX=100 cargo bench --bench substep
+//! -- --test`. Throughput is reported in environment control steps per second.
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use fluxswarm_gpu::config::Config;
+use fluxswarm_gpu::gpu::kernels::FieldBinding;
+use fluxswarm_gpu::gpu::{AdapterChoice, GpuContext};
+use fluxswarm_gpu::sim::FluidBatch;
+use fluxswarm_gpu::sim::cpu::CpuBatch;
+use rayon::prelude::*;
+
+fn env_usize(key: &str, default: usize) -> usize {
+    std::env::var(key)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+fn substep(c: &mut Criterion) {
+    let envs = env_usize("FLUXSWARM_BENCH_ENVS", 16);
+    let nx = env_usize("FLUXSWARM_BENCH_NX", 1000);
+    let length = nx as f64 * 1e-4;
+    let sets = vec![
+        format!("domain.nx={nx}"),
+        format!("domain.length_m={length}"),
+        format!("domain.success_x_m={}", 0.2 * length),
+        format!("domain.failure_x_m={}", 0.8 * length),
+        format!("swarm.grid_centre_x_m={}", 0.5 * length),
+    ];
+    let resolved = Config::load(None, &sets).expect("benchmark configuration");
+    let ctx = GpuContext::new(AdapterChoice::Auto).expect("an adapter (scripts/install-vulkan.sh)");
+    eprintln!("{}", ctx.banner());
+    let mut batch = FluidBatch::new(&ctx, &resolved, envs).expect("batch");
+    let n = batch.n_members();
+    batch.set_all_actions(&vec![[-1.0, 0.0]; envs * n]);
+
+    // The yardstick starts from the same state, one single-environment CpuBatch per task.
+    let one = FluidBatch::new(&ctx, &resolved, 1).expect("batch");
+    let read = |w| one.read_all(&ctx, w).expect("read-back");
+    let boxes: Vec<[f32; 4]> = read(FieldBinding::SwarmBox)
+        .chunks(4)
+        .map(|c| [c[0], c[1], c[2], c[3]])
+        .collect();
+    let body: Vec<[f32; 4]> = read(FieldBinding::Body)
+        .chunks(4)
+        .map(|c| [c[0], c[1], c[2], c[3]])
+        .collect();
+    let template = CpuBatch {
+        params: *one.params(),
+        scheme: resolved.config.solver.advection,
+        poisson: read(FieldBinding::Poisson),
+        u: read(FieldBinding::UIn),
+        v: read(FieldBinding::VIn),
+        p: read(FieldBinding::Pressure),
+        body,
+        divstar: vec![0.0; nx],
+        members: one.members().to_vec(),
+        actions: vec![[-1.0, 0.0]; n],
+        boxes,
+    };
+    let mut natives: Vec<CpuBatch> = (0..envs).map(|_| template.clone()).collect();
+    let substeps = resolved.config.time.substeps as usize;
+    let inlet: Vec<f32> = (0..substeps)
+        .map(|s| {
+            resolved
+                .waveform
+                .at((s + 1) as f64 * resolved.config.dt_sub()) as f32
+        })
+        .collect();
+
+    let mut group = c.benchmark_group(format!("control_step_nx{nx}_e{envs}"));
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(envs as u64));
+    group.bench_function("gpu", |b| b.iter(|| batch.step(&ctx).expect("step")));
+    group.bench_function("native", |b| {
+        b.iter(|| {
+            natives.par_iter_mut().for_each(|cpu| {
+                cpu.step(&inlet);
+            })
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, substep);
+criterion_main!(benches);

@@ -53,6 +53,9 @@ pub enum SimError {
     Checkpoint(#[from] crate::checkpoint::CheckpointError),
 }
 
+/// Per kernel: entry point, dispatches in the control step, total GPU time (s).
+pub type KernelTimes = Vec<(&'static str, u32, f64)>;
+
 /// One stage of the substep, for tests and timing by elimination.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stage {
@@ -852,7 +855,7 @@ impl FluidBatch {
     pub fn profile_step(
         &mut self,
         ctx: &GpuContext,
-    ) -> Result<Option<Vec<(&'static str, u32, f64)>>, SimError> {
+    ) -> Result<Option<KernelTimes>, SimError> {
         if !self.can_profile() {
             return Ok(None);
         }

@@ -68,9 +68,24 @@ fn diffuse(@builtin(global_invocation_id) g: vec3<u32>) {
     }
 }
 
+// Whether a face lies so far from the swarm's bounding box that both its cells are fluid:
+// `paint_bodies` leaves chi = 0 beyond r + dx/2 of every member, so the body field need not be
+// read there. A batch without members (bodies from `set_body`) always reads it.
+fn clear_of_swarm(e: u32, pos: vec2<f32>) -> bool {
+    if (P.n_members == 0u) {
+        return false;
+    }
+    let bx = swarm_box[e];
+    let reach = P.radius + 2.0 * max(P.dx, P.dy);
+    return pos.x < bx.x - reach || pos.x > bx.y + reach || pos.y < bx.z - reach || pos.y > bx.w + reach;
+}
+
 // Brinkman blend on a face between cells a and b: (1 - chi_f) w + (chi_a w_a + chi_b w_b) / 2
 // with chi_f = (chi_a + chi_b) / 2 (component 1: body u, component 2: body v).
 fn brinkman_u(e: u32, i: u32, j: u32, w: f32) -> f32 {
+    if (clear_of_swarm(e, u_face_pos(i, j))) {
+        return w;
+    }
     let ka = c_idx(e, max(i, 1u) - 1u, j);
     let kb = c_idx(e, min(i, P.nx - 1u), j);
     let chi_a = body[ka].x;
@@ -83,6 +98,9 @@ fn brinkman_u(e: u32, i: u32, j: u32, w: f32) -> f32 {
 }
 
 fn brinkman_v(e: u32, i: u32, j: u32, w: f32) -> f32 {
+    if (clear_of_swarm(e, v_face_pos(i, j))) {
+        return w;
+    }
     let ka = c_idx(e, i, j - 1u);
     let kb = c_idx(e, i, j);
     let chi_a = body[ka].x;
@@ -143,17 +161,38 @@ fn advect_diffuse(@builtin(global_invocation_id) g: vec3<u32>) {
     }
 }
 
-// MacCormack predictor with the extrema of its stencil (for the correction's clamp).
+// MacCormack predictor with the extrema of its stencil (for the correction's clamp) and, in
+// .w, the face's interpolated transverse velocity, so that the correction's Euler back-trace
+// (the same velocity, the other direction) need not gather it again.
 fn predict_u(e: u32, i: u32, j: u32) -> vec4<f32> {
-    let d = trace_u_face(e, i, j, P.dt);
+    let vel = velocity_at_u_face(e, i, j);
+    let d = trace(e, u_face_pos(i, j), vel, P.dt);
     let st = stencil_u(SRC_DIFFUSED, e, d.x, d.y);
-    return vec4<f32>(bilerp(st), stencil_min(st), stencil_max(st), 0.0);
+    return vec4<f32>(bilerp(st), stencil_min(st), stencil_max(st), vel.y);
 }
 
 fn predict_v(e: u32, i: u32, j: u32) -> vec4<f32> {
-    let d = trace_v_face(e, i, j, P.dt);
+    let vel = velocity_at_v_face(e, i, j);
+    let d = trace(e, v_face_pos(i, j), vel, P.dt);
     let st = stencil_v(SRC_DIFFUSED, e, d.x, d.y);
-    return vec4<f32>(bilerp(st), stencil_min(st), stencil_max(st), 0.0);
+    return vec4<f32>(bilerp(st), stencil_min(st), stencil_max(st), vel.x);
+}
+
+// The correction's backward semi-Lagrangian value A^-1(u_hat) at u face (i, j); h = u_hat[k].
+fn back_u(e: u32, i: u32, j: u32, k: u32, h: vec4<f32>) -> f32 {
+    if (P.rk2 != 0u) {
+        return sl_u(SRC_HAT, e, i, j, -P.dt);
+    }
+    let d = u_face_pos(i, j) + P.dt * vec2<f32>(u_in[k], h.w);
+    return bilerp(stencil_u(SRC_HAT, e, d.x, d.y));
+}
+
+fn back_v(e: u32, i: u32, j: u32, k: u32, h: vec4<f32>) -> f32 {
+    if (P.rk2 != 0u) {
+        return sl_v(SRC_HAT, e, i, j, -P.dt);
+    }
+    let d = v_face_pos(i, j) + P.dt * vec2<f32>(h.w, v_in[k]);
+    return bilerp(stencil_v(SRC_HAT, e, d.x, d.y));
 }
 
 @compute @workgroup_size(64, 1, 1)
@@ -204,9 +243,8 @@ fn maccormack_correct(@builtin(global_invocation_id) g: vec3<u32>) {
         var adv = 0.0;
         if (i > 0u) {
             let k = u_idx(e, i, j);
-            let back = sl_u(SRC_HAT, e, i, j, -P.dt);
             let h = u_hat[k];
-            adv = limited(h, w_u[k], back);
+            adv = limited(h, w_u[k], back_u(e, i, j, k, h));
         }
         u_out[u_idx(e, i, j)] = finish_u(e, i, j, adv);
     }
@@ -214,9 +252,8 @@ fn maccormack_correct(@builtin(global_invocation_id) g: vec3<u32>) {
         var adv = 0.0;
         if (j > 0u && j < P.ny) {
             let k = v_idx(e, i, j);
-            let back = sl_v(SRC_HAT, e, i, j, -P.dt);
             let h = v_hat[k];
-            adv = limited(h, w_v[k], back);
+            adv = limited(h, w_v[k], back_v(e, i, j, k, h));
         }
         v_out[v_idx(e, i, j)] = finish_v(e, i, j, adv);
     }

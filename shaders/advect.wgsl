@@ -29,6 +29,15 @@ fn fetch_v_in(e: u32, i: i32, j: i32) -> f32 {
 
 // dt nu lap u at the stored u face (i, j) of the input field (ghosts as in common.wgsl).
 fn diffusion_u(e: u32, i: i32, j: i32) -> f32 {
+    if (i >= 1 && i < i32(P.nx) && j >= 1 && j + 1 < i32(P.ny)) {
+        // Interior: the five faces need no ghost mapping.
+        let k = u_idx(e, u32(i), u32(j));
+        let row = P.nx + 1u;
+        let c = u_in[k];
+        let lx = u_in[k + 1u] + u_in[k - 1u] - 2.0 * c;
+        let ly = u_in[k + row] + u_in[k - row] - 2.0 * c;
+        return P.dt * P.nu * (lx / (P.dx * P.dx) + ly / (P.dy * P.dy));
+    }
     let c = fetch_u_in(e, i, j);
     let lx = fetch_u_in(e, i + 1, j) + fetch_u_in(e, i - 1, j) - 2.0 * c;
     let ly = fetch_u_in(e, i, j + 1) + fetch_u_in(e, i, j - 1) - 2.0 * c;
@@ -36,6 +45,13 @@ fn diffusion_u(e: u32, i: i32, j: i32) -> f32 {
 }
 
 fn diffusion_v(e: u32, i: i32, j: i32) -> f32 {
+    if (i >= 1 && i + 1 < i32(P.nx) && j >= 1 && j < i32(P.ny)) {
+        let k = v_idx(e, u32(i), u32(j));
+        let c = v_in[k];
+        let lx = v_in[k + 1u] + v_in[k - 1u] - 2.0 * c;
+        let ly = v_in[k + P.nx] + v_in[k - P.nx] - 2.0 * c;
+        return P.dt * P.nu * (lx / (P.dx * P.dx) + ly / (P.dy * P.dy));
+    }
     let c = fetch_v_in(e, i, j);
     let lx = fetch_v_in(e, i + 1, j) + fetch_v_in(e, i - 1, j) - 2.0 * c;
     let ly = fetch_v_in(e, i, j + 1) + fetch_v_in(e, i, j - 1) - 2.0 * c;

@@ -146,7 +146,11 @@ fn ghost_v(i: i32, j: i32) -> vec3<i32> {
 }
 
 fn value_u(src: u32, e: u32, i: i32, j: i32) -> f32 {
-    let k = u_idx(e, u32(i), u32(j));
+    return value_u_at(src, u_idx(e, u32(i), u32(j)));
+}
+
+// The stored u value at flat index k of buffer `src`.
+fn value_u_at(src: u32, k: u32) -> f32 {
     if (src == SRC_HAT) {
         return u_hat[k].x;
     }
@@ -160,7 +164,10 @@ fn value_u(src: u32, e: u32, i: i32, j: i32) -> f32 {
 }
 
 fn value_v(src: u32, e: u32, i: i32, j: i32) -> f32 {
-    let k = v_idx(e, u32(i), u32(j));
+    return value_v_at(src, v_idx(e, u32(i), u32(j)));
+}
+
+fn value_v_at(src: u32, k: u32) -> f32 {
     if (src == SRC_HAT) {
         return v_hat[k].x;
     }
@@ -210,12 +217,24 @@ fn stencil_u(src: u32, e: u32, x: f32, y: f32) -> Stencil {
     let i0 = min(i32(floor(fx)), i32(P.nx) - 1);
     let j0 = i32(floor(fy));
     var st: Stencil;
-    st.vals = vec4<f32>(
-        fetch_u(src, e, i0, j0),
-        fetch_u(src, e, i0 + 1, j0),
-        fetch_u(src, e, i0, j0 + 1),
-        fetch_u(src, e, i0 + 1, j0 + 1),
-    );
+    if (j0 >= 0 && j0 + 1 < i32(P.ny)) {
+        // Interior (i0 + 1 <= nx always): no ghost mapping needed.
+        let k = u_idx(e, u32(i0), u32(j0));
+        let row = P.nx + 1u;
+        st.vals = vec4<f32>(
+            value_u_at(src, k),
+            value_u_at(src, k + 1u),
+            value_u_at(src, k + row),
+            value_u_at(src, k + row + 1u),
+        );
+    } else {
+        st.vals = vec4<f32>(
+            fetch_u(src, e, i0, j0),
+            fetch_u(src, e, i0 + 1, j0),
+            fetch_u(src, e, i0, j0 + 1),
+            fetch_u(src, e, i0 + 1, j0 + 1),
+        );
+    }
     st.t = vec2<f32>(fx - f32(i0), fy - f32(j0));
     return st;
 }
@@ -227,12 +246,23 @@ fn stencil_v(src: u32, e: u32, x: f32, y: f32) -> Stencil {
     let i0 = i32(floor(fx));
     let j0 = min(i32(floor(fy)), i32(P.ny) - 1);
     var st: Stencil;
-    st.vals = vec4<f32>(
-        fetch_v(src, e, i0, j0),
-        fetch_v(src, e, i0 + 1, j0),
-        fetch_v(src, e, i0, j0 + 1),
-        fetch_v(src, e, i0 + 1, j0 + 1),
-    );
+    if (i0 >= 0 && i0 + 1 < i32(P.nx)) {
+        // Interior (j0 + 1 <= ny always): no ghost mapping needed.
+        let k = v_idx(e, u32(i0), u32(j0));
+        st.vals = vec4<f32>(
+            value_v_at(src, k),
+            value_v_at(src, k + 1u),
+            value_v_at(src, k + P.nx),
+            value_v_at(src, k + P.nx + 1u),
+        );
+    } else {
+        st.vals = vec4<f32>(
+            fetch_v(src, e, i0, j0),
+            fetch_v(src, e, i0 + 1, j0),
+            fetch_v(src, e, i0, j0 + 1),
+            fetch_v(src, e, i0 + 1, j0 + 1),
+        );
+    }
     st.t = vec2<f32>(fx - f32(i0), fy - f32(j0));
     return st;
 }
@@ -267,8 +297,15 @@ fn v_face_pos(i: u32, j: u32) -> vec2<f32> {
 fn velocity_at_u_face(e: u32, i: u32, j: u32) -> vec2<f32> {
     let a = i32(i);
     let b = i32(j);
-    let v = fetch_v(SRC_IN, e, a - 1, b) + fetch_v(SRC_IN, e, a, b)
-        + fetch_v(SRC_IN, e, a - 1, b + 1) + fetch_v(SRC_IN, e, a, b + 1);
+    var v: f32;
+    if (i >= 1u && i < P.nx) {
+        // Interior: the four v faces (i-1 and i, rows j and j+1) need no ghost mapping.
+        let k = v_idx(e, i - 1u, j);
+        v = v_in[k] + v_in[k + 1u] + v_in[k + P.nx] + v_in[k + P.nx + 1u];
+    } else {
+        v = fetch_v(SRC_IN, e, a - 1, b) + fetch_v(SRC_IN, e, a, b)
+            + fetch_v(SRC_IN, e, a - 1, b + 1) + fetch_v(SRC_IN, e, a, b + 1);
+    }
     return vec2<f32>(u_in[u_idx(e, i, j)], 0.25 * v);
 }
 
@@ -276,8 +313,16 @@ fn velocity_at_u_face(e: u32, i: u32, j: u32) -> vec2<f32> {
 fn velocity_at_v_face(e: u32, i: u32, j: u32) -> vec2<f32> {
     let a = i32(i);
     let b = i32(j);
-    let u = fetch_u(SRC_IN, e, a, b - 1) + fetch_u(SRC_IN, e, a + 1, b - 1)
-        + fetch_u(SRC_IN, e, a, b) + fetch_u(SRC_IN, e, a + 1, b);
+    var u: f32;
+    if (j >= 1u && j < P.ny) {
+        // Interior: the four u faces (i and i+1, rows j-1 and j) need no ghost mapping.
+        let k = u_idx(e, i, j - 1u);
+        let row = P.nx + 1u;
+        u = u_in[k] + u_in[k + 1u] + u_in[k + row] + u_in[k + row + 1u];
+    } else {
+        u = fetch_u(SRC_IN, e, a, b - 1) + fetch_u(SRC_IN, e, a + 1, b - 1)
+            + fetch_u(SRC_IN, e, a, b) + fetch_u(SRC_IN, e, a + 1, b);
+    }
     return vec2<f32>(0.25 * u, v_in[v_idx(e, i, j)]);
 }
 

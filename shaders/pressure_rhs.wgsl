@@ -7,7 +7,8 @@
 // kept in lane-interleaved workgroup scratch), then ny^2 / 2 multiply-adds: the basis is
 // mirror-symmetric, Q[ny-1-j][k] = (-1)^k Q[j][k], so even modes need only the sums
 // b_j + b_{ny-1-j} and odd modes the differences (and the middle row of an odd ny only
-// reaches even modes). Needs ny <= MAX_NY.
+// reaches even modes). The modes go four at a time (vec4), so each column value is loaded
+// once per four modes. Needs ny <= MAX_NY.
 // Reads u_out/v_out (the predicted field).
 
 const MAX_NY: u32 = 64u;
@@ -38,22 +39,43 @@ fn pressure_rhs(@builtin(global_invocation_id) g: vec3<u32>, @builtin(local_invo
         column[j * LANES + lane] = lo + hi;
         column[(P.ny - 1u - j) * LANES + lane] = lo - hi;
     }
+    // Four modes of one parity per pass over the half column: one load of the column value
+    // feeds four multiply-adds (table: PoissonTables::forward_packed, vec4 per row).
     let scale = P.rho / P.dt;
-    let odd_ny = (P.ny & 1u) == 1u;
-    for (var k = 0u; k < P.ny; k++) {
-        var acc = 0.0;
-        if ((k & 1u) == 0u) {
-            for (var j = 0u; j < half; j++) {
-                acc += poisson[j * P.ny + k] * column[j * LANES + lane];
+    let rows = (P.ny + 1u) / 2u;
+    let groups = (rows + 3u) / 4u;
+    let table = P.ny * P.ny + 2u * P.ny * P.nx;
+    for (var parity = 0u; parity < 2u; parity++) {
+        for (var group = 0u; group < groups; group++) {
+            var acc = vec4<f32>(0.0);
+            let at = table + ((parity * groups + group) * rows) * 4u;
+            var n = rows;
+            if (parity == 1u) {
+                n = half; // odd modes do not reach the middle row
             }
-            if (odd_ny) {
-                acc += poisson[half * P.ny + k] * column[half * LANES + lane];
+            for (var j = 0u; j < n; j++) {
+                var slot = j;
+                if (parity == 1u) {
+                    slot = P.ny - 1u - j;
+                }
+                let b = column[slot * LANES + lane];
+                let q = at + j * 4u;
+                acc += b * vec4<f32>(poisson[q], poisson[q + 1u], poisson[q + 2u], poisson[q + 3u]);
             }
-        } else {
-            for (var j = 0u; j < half; j++) {
-                acc += poisson[j * P.ny + k] * column[(P.ny - 1u - j) * LANES + lane];
+            let k0 = 8u * group + parity;
+            let out = e * P.ny;
+            if (k0 < P.ny) {
+                phat[(out + k0) * P.nx + i] = acc.x * scale;
+            }
+            if (k0 + 2u < P.ny) {
+                phat[(out + k0 + 2u) * P.nx + i] = acc.y * scale;
+            }
+            if (k0 + 4u < P.ny) {
+                phat[(out + k0 + 4u) * P.nx + i] = acc.z * scale;
+            }
+            if (k0 + 6u < P.ny) {
+                phat[(out + k0 + 6u) * P.nx + i] = acc.w * scale;
             }
         }
-        phat[(e * P.ny + k) * P.nx + i] = acc * scale;
     }
 }

@@ -23,22 +23,43 @@ fn pressure_back(@builtin(global_invocation_id) g: vec3<u32>, @builtin(local_inv
     for (var k = 0u; k < P.ny; k++) {
         modes[k * LANES + lane] = phat[(e * P.ny + k) * P.nx + i];
     }
-    for (var j = 0u; j < (P.ny + 1u) / 2u; j++) {
-        var even = 0.0;
-        for (var k = 0u; k < P.ny; k += 2u) {
-            even += poisson[j * P.ny + k] * modes[k * LANES + lane];
+    // Four rows per pass over the modes: one load of each mode feeds four multiply-adds
+    // (table: PoissonTables::backward_packed, vec4 per mode).
+    let rows = (P.ny + 1u) / 2u;
+    let table = P.ny * P.ny + 2u * P.ny * P.nx + 2u * ((rows + 3u) / 4u) * rows * 4u;
+    for (var group = 0u; group < (rows + 3u) / 4u; group++) {
+        var even = vec4<f32>(0.0);
+        var odd = vec4<f32>(0.0);
+        let at = table + group * P.ny * 4u;
+        for (var k = 0u; k < P.ny; k++) {
+            let q = at + k * 4u;
+            let term = modes[k * LANES + lane]
+                * vec4<f32>(poisson[q], poisson[q + 1u], poisson[q + 2u], poisson[q + 3u]);
+            if ((k & 1u) == 0u) {
+                even += term;
+            } else {
+                odd += term;
+            }
         }
-        var odd = 0.0;
-        for (var k = 1u; k < P.ny; k += 2u) {
-            odd += poisson[j * P.ny + k] * modes[k * LANES + lane];
-        }
-        let mirror = P.ny - 1u - j;
-        if (mirror == j) {
-            p[c_idx(e, i, j)] = even;
-        } else {
-            p[c_idx(e, i, j)] = even + odd;
-            p[c_idx(e, i, mirror)] = even - odd;
-        }
+        let j0 = 4u * group;
+        write_row_pair(e, i, j0, even.x, odd.x);
+        write_row_pair(e, i, j0 + 1u, even.y, odd.y);
+        write_row_pair(e, i, j0 + 2u, even.z, odd.z);
+        write_row_pair(e, i, j0 + 3u, even.w, odd.w);
+    }
+}
+
+// p at row j and its mirror ny-1-j from the even and odd mode sums (rows past the half skip).
+fn write_row_pair(e: u32, i: u32, j: u32, even: f32, odd: f32) {
+    if (j >= (P.ny + 1u) / 2u) {
+        return;
+    }
+    let mirror = P.ny - 1u - j;
+    if (mirror == j) {
+        p[c_idx(e, i, j)] = even;
+    } else {
+        p[c_idx(e, i, j)] = even + odd;
+        p[c_idx(e, i, mirror)] = even - odd;
     }
 }
 

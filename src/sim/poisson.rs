@@ -8,7 +8,10 @@
 //! with the first diagonal entry -1 + lambda_k dx^2 (Neumann inlet) and the last
 //! -3 + lambda_k dx^2 (ghost p[nx] = -p[nx-1]). Its Thomas factors (c'[i], 1/m[i]) are
 //! computed here in f64, once.
-//! GPU buffer layout (f32): [Q: ny*ny, Q[j*ny + k]] [c': ny*nx, k-major] [1/m: ny*nx, k-major].
+//! GPU buffer layout (f32): [Q: ny*ny, Q[j*ny + k]] [c': ny*nx, k-major] [1/m: ny*nx, k-major]
+//! [forward vec4 table] [backward vec4 table] (see [`PoissonTables::forward_packed`] and
+//! [`PoissonTables::backward_packed`]: Q regrouped so that the transforms do four modes or
+//! four rows per load of the column).
 
 use super::Grid;
 
@@ -68,12 +71,66 @@ impl PoissonTables {
         }
     }
 
+    /// Rows of the half column: (ny + 1) / 2 (the middle row of an odd ny included).
+    pub fn half_rows(&self) -> usize {
+        self.ny.div_ceil(2)
+    }
+
+    /// Groups of four modes of one parity: ceil(ceil(ny / 2) / 4).
+    pub fn mode_groups(&self) -> usize {
+        self.ny.div_ceil(2).div_ceil(4)
+    }
+
+    /// The forward transform's table, [parity][group][row][4]: entry c is
+    /// Q[row][8 group + parity + 2c] (0 past ny, and 0 for odd modes on the middle row of an odd
+    /// ny, which they do not reach). Even modes multiply b_j + b_{ny-1-j} (b_mid on the middle
+    /// row), odd modes b_j - b_{ny-1-j}.
+    pub fn forward_packed(&self) -> Vec<f64> {
+        let (ny, hr, g) = (self.ny, self.half_rows(), self.mode_groups());
+        let mut out = Vec::with_capacity(2 * g * hr * 4);
+        for parity in 0..2 {
+            for group in 0..g {
+                for row in 0..hr {
+                    for c in 0..4 {
+                        let k = 8 * group + parity + 2 * c;
+                        let middle = ny % 2 == 1 && row == ny / 2;
+                        let odd_on_middle = parity == 1 && middle;
+                        out.push(if k < ny && !odd_on_middle {
+                            self.q[row * ny + k]
+                        } else {
+                            0.0
+                        });
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// The backward transform's table, [row group][mode][4]: entry c is Q[4 group + c][k]
+    /// (0 past the half rows).
+    pub fn backward_packed(&self) -> Vec<f64> {
+        let (ny, hr) = (self.ny, self.half_rows());
+        let mut out = Vec::with_capacity(hr.div_ceil(4) * ny * 4);
+        for group in 0..hr.div_ceil(4) {
+            for k in 0..ny {
+                for c in 0..4 {
+                    let row = 4 * group + c;
+                    out.push(if row < hr { self.q[row * ny + k] } else { 0.0 });
+                }
+            }
+        }
+        out
+    }
+
     /// The concatenated f32 buffer the GPU reads.
     pub fn to_gpu(&self) -> Vec<f32> {
         self.q
             .iter()
             .chain(&self.c_prime)
             .chain(&self.m_inv)
+            .chain(&self.forward_packed())
+            .chain(&self.backward_packed())
             .map(|&x| x as f32)
             .collect()
     }

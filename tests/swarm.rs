@@ -463,9 +463,8 @@ fn whole_control_step_with_a_swarm_matches_cpu() {
     b.set_all_actions(&actions);
     let cpu_start = b.members().to_vec();
     let read = |w| b.read_all(&ctx, w).unwrap();
-    let quads = |v: Vec<f32>| -> Vec<[f32; 4]> {
-        v.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()
-    };
+    let quads =
+        |v: Vec<f32>| -> Vec<[f32; 4]> { v.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect() };
     let mut reference = cpu::CpuBatch {
         params: *b.params(),
         scheme: fluxswarm_gpu::config::Advection::Maccormack,
@@ -491,7 +490,9 @@ fn whole_control_step_with_a_swarm_matches_cpu() {
     let body: Vec<f32> = reference.body.concat();
     close("body", &read(FieldBinding::Body), &body, 1e-5);
     let flat = |m: &[GpuMember]| -> Vec<f32> {
-        m.iter().flat_map(|m| [m.pos[0], m.pos[1], m.vel[0], m.vel[1]]).collect()
+        m.iter()
+            .flat_map(|m| [m.pos[0], m.pos[1], m.vel[0], m.vel[1]])
+            .collect()
     };
     let moved = flat(b.members());
     close("members", &moved, &flat(&reference.members), 1e-5);

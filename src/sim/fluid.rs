@@ -852,10 +852,7 @@ impl FluidBatch {
     /// One control step exactly as [`Self::step`] records it, with a GPU timestamp before and
     /// after every dispatch; returns each kernel's dispatch count and total time over the step
     /// (s), in the order of first use. `None` where the adapter has no timestamps inside passes.
-    pub fn profile_step(
-        &mut self,
-        ctx: &GpuContext,
-    ) -> Result<Option<KernelTimes>, SimError> {
+    pub fn profile_step(&mut self, ctx: &GpuContext) -> Result<Option<KernelTimes>, SimError> {
         if !self.can_profile() {
             return Ok(None);
         }

@@ -47,7 +47,7 @@ fn substep(c: &mut Criterion) {
     let one = FluidBatch::new(&ctx, &resolved, 1).expect("batch");
     let read = |w| one.read_all(&ctx, w).expect("read-back");
     let boxes: Vec<[f32; 4]> = read(FieldBinding::SwarmBox)
-        .chunks(4)
+        .chunks(8)
         .map(|c| [c[0], c[1], c[2], c[3]])
         .collect();
     let body: Vec<[f32; 4]> = read(FieldBinding::Body)

@@ -91,7 +91,7 @@ fn clear_of_swarm(e: u32, pos: vec2<f32>) -> bool {
     if (P.n_members == 0u) {
         return false;
     }
-    let bx = swarm_box[e];
+    let bx = swarm_box[2u * e];
     let reach = P.radius + 2.0 * max(P.dx, P.dy);
     return pos.x < bx.x - reach || pos.x > bx.y + reach || pos.y < bx.z - reach || pos.y > bx.w + reach;
 }

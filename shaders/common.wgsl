@@ -10,7 +10,8 @@
 //   poisson  [ny*ny | ny*nx | ny*nx]  Q (orthonormal DCT-II, Q[j*ny + k]), Thomas c', 1/m
 //   w_u, w_v like u, v: the input velocity after one explicit diffusion step
 //   u_hat, v_hat like u, v but vec4: (MacCormack predictor, min, max of its stencil, 0)
-//   members, member_diag, thrust (raw actions) [E][N]; swarm_box [E] (x/y extent of centres)
+//   members, member_diag, thrust (raw actions) [E][N]; swarm_box [E][2] (x/y extent of the centres; the extent at the last paint, where the body
+//   field may be non-zero)
 // Boundary ghosts: walls (y = 0, H) no-slip (u odd, v = 0 on the wall faces); inlet (x = 0)
 // Dirichlet u, v = 0 (v odd); outlet (x = L) zero-gradient velocity, p = 0 on the face.
 // Mirrors `src/gpu/params.rs` (GpuParams, SubstepUniform).

@@ -3,7 +3,9 @@
 // `paint_bodies`, dispatch (ceil(nx/64), ny, E), thread (i, j, e) = cell:
 //   chi = max over members of clamp(1/2 + (r - |x_c - x_m|) / dx, 0, 1) (a one-cell ramp, so a
 //   moving member changes the field smoothly), body velocity = that member's velocity.
-//   Cells outside the swarm's bounding box (swarm_box, grown by r + dx) skip the member loop.
+//   Cells outside the swarm's bounding box (swarm_box[e][0], grown by r + dx) skip the member
+//   loop, and cells outside both it and the box of the previous paint (swarm_box[e][1]) are
+//   already zero and are not written at all.
 // `move_members`, dispatch (E, 1, 1), one workgroup of 64 per environment, thread m = member:
 //   p_k, u_k sampled (bilinear) at the 4 points x + R_s (cos t_k, sin t_k), t_k = 0, 90, 180,
 //   270 deg, clamped into the channel; after the projection (SRC_OUT).
@@ -30,9 +32,16 @@ fn paint_bodies(@builtin(global_invocation_id) g: vec3<u32>) {
     }
     let c = vec2<f32>((f32(i) + 0.5) * P.dx, (f32(j) + 0.5) * P.dy);
     let reach = P.radius + P.dx;
-    let bx = swarm_box[e];
+    let bx = swarm_box[2u * e];
+    let old = swarm_box[2u * e + 1u];
+    let inside = c.x >= bx.x - reach && c.x <= bx.y + reach && c.y >= bx.z - reach && c.y <= bx.w + reach;
+    let was_inside = c.x >= old.x - reach && c.x <= old.y + reach && c.y >= old.z - reach
+        && c.y <= old.w + reach;
+    if (!inside && !was_inside) {
+        return; // zero since the last paint: nothing to clear
+    }
     var cell = vec4<f32>(0.0);
-    if (c.x >= bx.x - reach && c.x <= bx.y + reach && c.y >= bx.z - reach && c.y <= bx.w + reach) {
+    if (inside) {
         for (var m = 0u; m < P.n_members; m++) {
             let mem = members[e * P.n_members + m];
             let chi = clamp(0.5 + (P.radius - length(c - mem.pos)) * P.inv_dx, 0.0, 1.0);
@@ -191,6 +200,8 @@ fn move_members(@builtin(local_invocation_id) l: vec3<u32>, @builtin(workgroup_i
         for (var j = 1u; j < n; j++) {
             bx = vec4<f32>(min(bx.x, wpos[j].x), max(bx.y, wpos[j].x), min(bx.z, wpos[j].y), max(bx.w, wpos[j].y));
         }
-        swarm_box[e] = bx;
+        // The box just painted becomes the one to clear next time.
+        swarm_box[2u * e + 1u] = swarm_box[2u * e];
+        swarm_box[2u * e] = bx;
     }
 }

@@ -44,6 +44,11 @@ fn member(x_mm: f64, y_mm: f64, vx: f32, vy: f32, pinned: bool) -> GpuMember {
     }
 }
 
+/// The current swarm box of each environment ([E][2] vec4 on the device: current, painted).
+fn current_boxes(raw: &[f32]) -> Vec<[f32; 4]> {
+    raw.chunks(8).map(|c| [c[0], c[1], c[2], c[3]]).collect()
+}
+
 fn close(name: &str, gpu: &[f32], cpu: &[f32], rel: f32) {
     let (d, m) = max_diff(gpu, cpu);
     assert!(
@@ -87,7 +92,7 @@ fn member_kernels_match_cpu() {
     b.write_all(FieldBinding::VOut, &v);
     b.write_all(FieldBinding::Pressure, &p);
     let boxes: Vec<f32> = b.read_all(&ctx, FieldBinding::SwarmBox).unwrap();
-    let boxes: Vec<[f32; 4]> = bytemuck::cast_slice(&boxes).to_vec();
+    let boxes: Vec<[f32; 4]> = current_boxes(&boxes);
 
     b.run_stages(&ctx, &[Stage::PaintBodies], 0, 1).unwrap();
     let body = b.read_all(&ctx, FieldBinding::Body).unwrap();
@@ -120,7 +125,15 @@ fn member_kernels_match_cpu() {
         1e-4,
     );
     let gb = b.read_all(&ctx, FieldBinding::SwarmBox).unwrap();
-    close("swarm box", &gb, bytemuck::cast_slice(&cb), 1e-6);
+    close(
+        "swarm box",
+        &current_boxes(&gb).concat(),
+        &cb.concat(),
+        1e-6,
+    );
+    // The box the paint used is kept as the one to clear next time.
+    let painted: Vec<f32> = gb.chunks(8).flat_map(|c| c[4..8].to_vec()).collect();
+    assert_eq!(painted, boxes.concat());
     assert_eq!(gm[7].vel, [0.0, 0.0], "the pinned member stays at rest");
     assert_eq!(gm[7].pos, all[7].pos);
 }
@@ -476,7 +489,7 @@ fn whole_control_step_with_a_swarm_matches_cpu() {
         divstar: vec![0.0; 2 * 77],
         members: cpu_start.clone(),
         actions: actions.clone(),
-        boxes: quads(read(FieldBinding::SwarmBox)),
+        boxes: current_boxes(&read(FieldBinding::SwarmBox)),
     };
     let inlet: Vec<f32> = (0..2)
         .flat_map(|_| (0..4).map(|s| b.waveform().at((s as f64 + 1.0) * 0.001 / 4.0) as f32))
@@ -499,4 +512,45 @@ fn whole_control_step_with_a_swarm_matches_cpu() {
     // The members moved, and the solid is where they are.
     assert_ne!(moved, flat(&cpu_start));
     assert!(body.iter().step_by(4).any(|chi| *chi > 0.5));
+}
+
+/// The paint writes only inside the current and the previously painted box: after the swarm
+/// jumps (as the move kernel records it: current box, painted box), the old discs are cleared
+/// and the new ones painted, exactly as a full repaint would; cells outside both boxes are not
+/// touched (they are zero by construction in a run).
+#[test]
+fn paint_clears_where_the_swarm_was_and_nothing_beyond() {
+    let (_lock, ctx) = common::gpu();
+    let at_a = [[1.5, 0.5], [2.0, 0.8]];
+    let mut b = swarm_batch(&ctx, 60, 14, 1, &at_a, &[]);
+    b.run_stages(&ctx, &[Stage::PaintBodies], 0, 1).unwrap(); // full paint at A
+    let raw_box = b.read_all(&ctx, FieldBinding::SwarmBox).unwrap();
+    let box_a = current_boxes(&raw_box)[0];
+    // The swarm now at B, 2.5 mm downstream; the box to clear is A's.
+    let at_b = [
+        member(4.0, 0.5, 0.0, 0.0, false),
+        member(4.5, 0.8, 0.0, 0.0, false),
+    ];
+    b.write_all(
+        FieldBinding::Members,
+        bytemuck::cast_slice::<GpuMember, f32>(&at_b),
+    );
+    let box_b = [4.0e-3, 4.5e-3, 0.5e-3, 0.8e-3];
+    b.write_all(FieldBinding::SwarmBox, &[box_b, box_a].concat());
+    // A marker far from both boxes must survive: the paint does not visit it.
+    let mut body = b.read_all(&ctx, FieldBinding::Body).unwrap();
+    let far = 13 * 60 + 58; // cell (58, 13), 5.8 mm
+    body[4 * far] = 0.25;
+    b.write_all(FieldBinding::Body, &body);
+    b.run_stages(&ctx, &[Stage::PaintBodies], 0, 1).unwrap();
+    let got = b.read_all(&ctx, FieldBinding::Body).unwrap();
+    let mut want: Vec<f32> = cpu::paint_bodies(b.params(), &at_b, &[box_b]).concat();
+    want[4 * far] = 0.25;
+    close("body after the jump", &got, &want, 1e-6);
+    let chi_near_a = got[4 * (5 * 60 + 15)]; // cell (15, 5): inside the old disc at (1.5, 0.5)
+    assert_eq!(chi_near_a, 0.0, "the old disc is cleared");
+    assert!(
+        got.chunks(4).filter(|c| c[0] == 1.0).count() >= 2 * 9,
+        "new discs painted"
+    );
 }

@@ -383,7 +383,7 @@ impl FluidBatch {
             members: zeros("members", n_env * n_members * 32),
             member_diag: zeros("member diag", n_env * n_members * 48),
             thrust: zeros("thrust", n_env * n_members * 8),
-            swarm_box: zeros("swarm box", n_env * 16),
+            swarm_box: zeros("swarm box", n_env * 32),
             health_staging: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("health + members staging"),
                 size: (n_env * (32 + n_members * (32 + 48))) as u64,
@@ -566,10 +566,12 @@ impl FluidBatch {
         let (xs, ys): (Vec<f32>, Vec<f32>) = members.iter().map(|m| (m.pos[0], m.pos[1])).unzip();
         let lo = |v: &[f32]| v.iter().copied().fold(f32::INFINITY, f32::min);
         let hi = |v: &[f32]| v.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        // The last painted box is unknown after a jump: the next paint clears everywhere.
+        let all = f32::MAX;
         self.write_env(
             FieldBinding::SwarmBox,
             e,
-            &[lo(&xs), hi(&xs), lo(&ys), hi(&ys)],
+            &[lo(&xs), hi(&xs), lo(&ys), hi(&ys), -all, all, -all, all],
         )?;
         let k = e * self.n_members;
         if self.last_members.len() >= k + self.n_members {
@@ -666,7 +668,7 @@ impl FluidBatch {
             FieldBinding::Members => 8 * self.n_members,
             FieldBinding::MemberDiag => 12 * self.n_members,
             FieldBinding::Thrust => 2 * self.n_members,
-            FieldBinding::SwarmBox => 4,
+            FieldBinding::SwarmBox => 8,
         }
     }
 

@@ -1,7 +1,9 @@
 // Momentum predictor: explicit viscous diffusion, then semi-Lagrangian advection (RK2 trace
 // in the velocity u^n, bilinear), inlet/wall boundary values and Brinkman blending.
 //
-//   `diffuse`: w = u^n + dt nu lap u^n   (w_u, w_v; inlet and wall faces keep their values)
+//   `diffuse`: w = u^n + dt nu lap u^n   (w_u, w_v; inlet and wall faces keep their values);
+//              with members it also paints the body field (`paint_cell`): one pass over the
+//              grid instead of two, since lavapipe pays per invocation
 //   u* = A(w),   then  u* <- (1 - chi_f) u* + chi_f u_body   (solid faces)
 //
 // Advecting the diffused field (sequential splitting) keeps the scheme stable at CFL ~ 1;
@@ -81,6 +83,9 @@ fn diffuse(@builtin(global_invocation_id) g: vec3<u32>) {
         } else {
             w_v[k] = v_in[k] + diffusion_v(e, i32(i), i32(j));
         }
+    }
+    if (P.n_members > 0u && i < P.nx && j < P.ny) {
+        paint_cell(e, i, j);
     }
 }
 

@@ -338,3 +338,30 @@ fn trace_v_face(e: u32, i: u32, j: u32, h: f32) -> vec2<f32> {
 fn is_finite(x: f32) -> bool {
     return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
 }
+
+// Paints cell (i, j) of environment e from the members (see members.wgsl, `paint_bodies`):
+// chi = max over members of clamp(1/2 + (r - |x_c - x_m|) / dx, 0, 1), body velocity that
+// member's; only inside the current or the last painted swarm box (elsewhere it is zero).
+fn paint_cell(e: u32, i: u32, j: u32) {
+    let c = vec2<f32>((f32(i) + 0.5) * P.dx, (f32(j) + 0.5) * P.dy);
+    let reach = P.radius + P.dx;
+    let bx = swarm_box[2u * e];
+    let old = swarm_box[2u * e + 1u];
+    let inside = c.x >= bx.x - reach && c.x <= bx.y + reach && c.y >= bx.z - reach && c.y <= bx.w + reach;
+    let was_inside = c.x >= old.x - reach && c.x <= old.y + reach && c.y >= old.z - reach
+        && c.y <= old.w + reach;
+    if (!inside && !was_inside) {
+        return; // zero since the last paint: nothing to clear
+    }
+    var cell = vec4<f32>(0.0);
+    if (inside) {
+        for (var m = 0u; m < P.n_members; m++) {
+            let mem = members[e * P.n_members + m];
+            let chi = clamp(0.5 + (P.radius - length(c - mem.pos)) * P.inv_dx, 0.0, 1.0);
+            if (chi > cell.x) {
+                cell = vec4<f32>(chi, mem.vel, 0.0);
+            }
+        }
+    }
+    body[c_idx(e, i, j)] = cell;
+}

@@ -1,6 +1,7 @@
 // The swarm: members as moving Brinkman bodies, and their motion.
 //
-// `paint_bodies`, dispatch (ceil(nx/64), ny, E), thread (i, j, e) = cell:
+// `paint_bodies`, dispatch (ceil(nx/64), ny, E), thread (i, j, e) = cell (`paint_cell` in
+// common.wgsl; the control step runs it inside `diffuse`, this entry serves tests and timing):
 //   chi = max over members of clamp(1/2 + (r - |x_c - x_m|) / dx, 0, 1) (a one-cell ramp, so a
 //   moving member changes the field smoothly), body velocity = that member's velocity.
 //   Cells outside the swarm's bounding box (swarm_box[e][0], grown by r + dx) skip the member
@@ -30,27 +31,7 @@ fn paint_bodies(@builtin(global_invocation_id) g: vec3<u32>) {
     if (i >= P.nx || j >= P.ny || e >= P.n_env) {
         return;
     }
-    let c = vec2<f32>((f32(i) + 0.5) * P.dx, (f32(j) + 0.5) * P.dy);
-    let reach = P.radius + P.dx;
-    let bx = swarm_box[2u * e];
-    let old = swarm_box[2u * e + 1u];
-    let inside = c.x >= bx.x - reach && c.x <= bx.y + reach && c.y >= bx.z - reach && c.y <= bx.w + reach;
-    let was_inside = c.x >= old.x - reach && c.x <= old.y + reach && c.y >= old.z - reach
-        && c.y <= old.w + reach;
-    if (!inside && !was_inside) {
-        return; // zero since the last paint: nothing to clear
-    }
-    var cell = vec4<f32>(0.0);
-    if (inside) {
-        for (var m = 0u; m < P.n_members; m++) {
-            let mem = members[e * P.n_members + m];
-            let chi = clamp(0.5 + (P.radius - length(c - mem.pos)) * P.inv_dx, 0.0, 1.0);
-            if (chi > cell.x) {
-                cell = vec4<f32>(chi, mem.vel, 0.0);
-            }
-        }
-    }
-    body[c_idx(e, i, j)] = cell;
+    paint_cell(e, i, j);
 }
 
 // Pressure at (x, y), bilinear in the cell centres, constant beyond the outer centres.

@@ -522,7 +522,7 @@ fn whole_control_step_with_a_swarm_matches_cpu() {
 fn paint_clears_where_the_swarm_was_and_nothing_beyond() {
     let (_lock, ctx) = common::gpu();
     let at_a = [[1.5, 0.5], [2.0, 0.8]];
-    let mut b = swarm_batch(&ctx, 60, 14, 1, &at_a, &[]);
+    let b = swarm_batch(&ctx, 60, 14, 1, &at_a, &[]);
     b.run_stages(&ctx, &[Stage::PaintBodies], 0, 1).unwrap(); // full paint at A
     let raw_box = b.read_all(&ctx, FieldBinding::SwarmBox).unwrap();
     let box_a = current_boxes(&raw_box)[0];

@@ -19,6 +19,10 @@ pub enum GpuError {
     Device { adapter: String, message: String },
     #[error("GPU operation failed: {0}")]
     Operation(String),
+    #[error(
+        "the GPU rejected a command ({0}); its results are void. This is a bug in fluxswarm-gpu: please report it with the command line and `fluxswarm-gpu info`"
+    )]
+    Rejected(String),
 }
 
 /// Which kind of adapter to run on (`--adapter`).
@@ -49,6 +53,9 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
     pub info: wgpu::AdapterInfo,
     pub limits: wgpu::Limits,
+    /// The first error wgpu raised outside an error scope (a rejected command buffer runs
+    /// nothing), reported by the next [`GpuContext::wait`].
+    error: std::sync::Arc<std::sync::Mutex<Option<String>>>,
 }
 
 impl GpuContext {
@@ -82,14 +89,19 @@ impl GpuContext {
             adapter: describe(&info),
             message: e.to_string(),
         })?;
-        device.on_uncaptured_error(std::sync::Arc::new(|e| {
+        let error = std::sync::Arc::new(std::sync::Mutex::new(None));
+        let sink = error.clone();
+        device.on_uncaptured_error(std::sync::Arc::new(move |e| {
             log::error!("wgpu: {e}");
+            let mut first = sink.lock().unwrap_or_else(|p| p.into_inner());
+            first.get_or_insert_with(|| e.to_string());
         }));
         Ok(Self {
             device,
             queue,
             info,
             limits,
+            error,
         })
     }
 
@@ -115,11 +127,17 @@ impl GpuContext {
     }
 
     /// Waits for all submitted work.
+    /// Waits for the submitted work; fails if wgpu rejected any command since the last check
+    /// (its validation errors would otherwise leave results silently unwritten).
     pub fn wait(&self) -> Result<(), GpuError> {
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
-            .map(|_| ())
-            .map_err(|e| GpuError::Operation(e.to_string()))
+            .map_err(|e| GpuError::Operation(e.to_string()))?;
+        let mut first = self.error.lock().unwrap_or_else(|p| p.into_inner());
+        match first.take() {
+            Some(e) => Err(GpuError::Rejected(e)),
+            None => Ok(()),
+        }
     }
 }
 

@@ -16,7 +16,7 @@ use super::shaders;
 pub const READ_OVERRIDES: [(&str, &[FieldBinding]); 5] = {
     use FieldBinding::*;
     [
-        ("diffuse", &[UIn, VIn]),
+        ("diffuse", &[UIn, VIn, Members, SwarmBox]),
         ("advect_diffuse", &[UIn, VIn, WU, WV, Body, Inlet]),
         ("advect_predict", &[UIn, VIn, WU, WV]),
         (
@@ -91,10 +91,11 @@ mod tests {
     fn accesses_come_from_the_shaders() {
         let all = kernel_accesses();
         let find = |e: &str| all.iter().find(|k| k.entry == e).unwrap().clone();
-        // diffuse: reads u_in (2) and v_in (3), writes w_u (16) and w_v (17) and nothing else.
+        // diffuse: reads u_in (2), v_in (3) and, to paint, members (18) and the swarm box (21);
+        // writes w_u (16), w_v (17) and the body field (10).
         let d = find("diffuse");
-        assert_eq!(d.reads, [2, 3]);
-        assert_eq!(d.writes, [16, 17]);
+        assert_eq!(d.reads, [2, 3, 18, 21]);
+        assert_eq!(d.writes, [10, 16, 17]);
         // From naga directly: the projection reads u_out, v_out (4, 5) and p (8).
         assert_eq!(find("project").reads, [4, 5, 8]);
         assert_eq!(find("pressure_back").writes, [8]);

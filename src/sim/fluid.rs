@@ -380,9 +380,10 @@ impl FluidBatch {
             health: zeros("health", n_env * 32),
             w_u: zeros("w_u", n_env * grid.n_u() * f),
             w_v: zeros("w_v", n_env * grid.n_v() * f),
-            members: zeros("members", n_env * n_members * 32),
-            member_diag: zeros("member diag", n_env * n_members * 48),
-            thrust: zeros("thrust", n_env * n_members * 8),
+            // At least one element each: `diffuse` (which paints) binds them in every batch.
+            members: zeros("members", n_env * n_members.max(1) * 32),
+            member_diag: zeros("member diag", n_env * n_members.max(1) * 48),
+            thrust: zeros("thrust", n_env * n_members.max(1) * 8),
             swarm_box: zeros("swarm box", n_env * 32),
             health_staging: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("health + members staging"),
@@ -500,7 +501,8 @@ impl FluidBatch {
 
     /// Dispatches per substep (advection scheme dependent) and per control step.
     pub fn dispatches_per_substep(&self) -> u32 {
-        Advect::dispatches(self.scheme) + 4 + if self.n_members > 0 { 2 } else { 0 }
+        // With members: `move_members`; the paint runs inside `diffuse`.
+        Advect::dispatches(self.scheme) + 4 + if self.n_members > 0 { 1 } else { 0 }
     }
 
     pub fn dispatches_per_control_step(&self) -> u32 {
@@ -910,9 +912,6 @@ impl FluidBatch {
     fn record_control_step(&mut self, rec: &mut Recorder<'_>) {
         let mut cur = self.cur;
         for s in 0..self.substeps {
-            if self.n_members > 0 {
-                self.record_stage(rec, Stage::PaintBodies, cur, s);
-            }
             for stage in [
                 Stage::Advect,
                 Stage::PressureRhs,

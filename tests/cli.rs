@@ -34,6 +34,7 @@ fn simulate_writes_frames_fields_and_summary() {
         "2",
         "--fields-every",
         "2",
+        "--gif",
         "--out",
     ];
     let out_s = out.to_str().unwrap();
@@ -57,6 +58,17 @@ fn simulate_writes_frames_fields_and_summary() {
         }
     }
     assert!(!out.join("frames/env0_s000001.png").exists());
+    // --gif: one looping animation of the three frames, README-sized.
+    {
+        use image::AnimationDecoder;
+        let f = std::fs::File::open(out.join("animation.gif")).unwrap();
+        let dec = image::codecs::gif::GifDecoder::new(std::io::BufReader::new(f)).unwrap();
+        let frames: Vec<_> = dec.into_frames().collect::<Result<_, _>>().unwrap();
+        assert_eq!(frames.len(), 3);
+        assert!(frames[0].buffer().width() <= 640);
+    }
+    let o = bin(&[&["simulate", "--gif", "--frames-every", "0"], SMALL].concat());
+    assert!(!o.status.success() && text(&o).contains("--frames-every K"));
     let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
     let lines: Vec<&str> = summary.lines().collect();
     assert_eq!(

@@ -20,6 +20,16 @@ pub struct ConfigArgs {
     pub adapter: AdapterChoice,
 }
 
+/// Writes `out/animation.gif` from the frames in `out/frames` whose names start with `prefix`.
+pub fn write_gif(out: &std::path::Path, prefix: &str) -> anyhow::Result<()> {
+    use fluxswarm_gpu::output::gif;
+    let frames = gif::frames_in(&out.join("frames"), prefix);
+    let path = out.join("animation.gif");
+    gif::write(&frames, &path, gif::README_WIDTH, 80)?;
+    log::info!("{} frames -> {}", frames.len(), path.display());
+    Ok(())
+}
+
 impl ConfigArgs {
     /// Loads and validates the configuration (before any GPU work).
     pub fn load(&self) -> anyhow::Result<Resolved> {

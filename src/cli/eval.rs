@@ -32,6 +32,9 @@ pub struct EvalArgs {
     /// Write a frame of environment 0 every K control steps (0: none).
     #[arg(long, default_value_t = 0, value_name = "K")]
     pub frames_every: u64,
+    /// Also write `animation.gif` of the frames (needs --frames-every).
+    #[arg(long)]
+    pub gif: bool,
     #[arg(long, value_enum, default_value_t = AdapterChoice::Auto)]
     pub adapter: AdapterChoice,
 }
@@ -50,5 +53,6 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         seed: args.seed,
         out: Some(args.out.unwrap_or_else(|| run_dir::default_dir("eval"))),
         frames_every: args.frames_every,
+        gif: args.gif,
     })
 }

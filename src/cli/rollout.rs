@@ -47,6 +47,9 @@ pub struct RolloutArgs {
     /// Write a frame of environment 0 every K control steps (0: none).
     #[arg(long, default_value_t = 0, value_name = "K")]
     pub frames_every: u64,
+    /// Also write `animation.gif` of the frames (needs --frames-every).
+    #[arg(long)]
+    pub gif: bool,
 }
 
 /// What chooses the actions.
@@ -115,6 +118,9 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
     };
     if resolved.config.swarm.count == 0 {
         bail!("rollout needs a swarm: swarm.count is 0");
+    }
+    if args.gif && args.frames_every == 0 {
+        bail!("--gif animates the frames: give --frames-every K with K > 0");
     }
     if args.envs == 0 || args.episodes == 0 {
         bail!("--envs and --episodes must be positive");
@@ -328,6 +334,9 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
         "{finished} episodes, {steps_total} environment steps in {wall:.1} s ({:.2} env steps/s)",
         steps_total as f64 / wall
     );
+    if args.gif {
+        super::common::write_gif(&out, "env0_")?;
+    }
     println!("{}", out.display());
     Ok(())
 }

@@ -41,6 +41,9 @@ pub struct SimulateArgs {
     /// Run the flow without the swarm (same as `--set swarm.count=0`).
     #[arg(long)]
     pub no_swarm: bool,
+    /// Also write `animation.gif` of the frames (640 px wide, for a README).
+    #[arg(long)]
+    pub gif: bool,
 }
 
 pub fn run(mut args: SimulateArgs) -> anyhow::Result<()> {
@@ -60,6 +63,9 @@ pub fn run(mut args: SimulateArgs) -> anyhow::Result<()> {
             args.env,
             args.envs
         );
+    }
+    if args.gif && args.frames_every == 0 {
+        bail!("--gif animates the frames: give --frames-every K with K > 0");
     }
     if args.fields_every == Some(0) {
         bail!(
@@ -135,6 +141,9 @@ pub fn run(mut args: SimulateArgs) -> anyhow::Result<()> {
         "{steps} control steps in {wall:.1} s: {:.2} environment steps/s",
         (steps as f64 * args.envs as f64) / wall
     );
+    if args.gif {
+        super::common::write_gif(&out, &format!("env{}_s", args.env))?;
+    }
     println!("{}", out.display());
     Ok(())
 }

@@ -2,6 +2,7 @@
 
 pub mod episodes;
 pub mod frame;
+pub mod gif;
 pub mod npy;
 pub mod run_dir;
 pub mod tensorboard;

@@ -50,7 +50,9 @@ fn main() -> anyhow::Result<()> {
     println!("{}", ctx.banner());
     let base = run(&ctx, 1)?;
     let fine = run(&ctx, 2)?;
-    println!("| t (s) | x_COM (mm), paper grid | x_COM (mm), dx/2 dt/2 | difference (mm) | dp (Pa), paper grid | dp (Pa), dx/2 dt/2 | difference |");
+    println!(
+        "| t (s) | x_COM (mm), paper grid | x_COM (mm), dx/2 dt/2 | difference (mm) | dp (Pa), paper grid | dp (Pa), dx/2 dt/2 | difference |"
+    );
     println!("|---|---|---|---|---|---|---|");
     for (b, f) in base.iter().zip(&fine) {
         println!(

@@ -191,8 +191,10 @@ fn rollout_writes_episodes_swarm_and_trajectories() {
         lines[0],
         "env,episode,steps,outcome,progress,energy,smoothness,progress_mean,energy_sum,smoothness_sum,scalar_return,final_x_com_mm"
     );
-    // Both environments truncate together after 3 steps, so 4 episodes finish (>= 3).
-    assert_eq!(lines.len(), 1 + 4);
+    // Both environments truncate together every 3 steps: 4 episodes end by step 6, and exactly
+    // the 3 asked for are counted (environment 1's second episode is not).
+    assert_eq!(lines.len(), 1 + 3, "{episodes}");
+    assert!(lines[3].starts_with("0,1,3,timeout,"), "{episodes}");
     assert!(
         lines[1].starts_with("0,0,3,timeout,") && lines[2].starts_with("1,0,3,timeout,"),
         "{episodes}"

@@ -285,7 +285,10 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
                     &resolved,
                 )?;
             }
-            if let Some(s) = &step.episodes[e] {
+            if let Some(s) = &step.episodes[e]
+                && finished < args.episodes
+            {
+                // Exactly K episodes: others ending in the same step are not counted.
                 finished += 1;
                 episodes_csv.write(0, s)?;
                 bar.inc(1);

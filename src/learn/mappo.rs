@@ -160,7 +160,7 @@ impl Learner {
     /// moments and step counts, the observation normaliser and the RNG.
     pub fn save_state(&self, archive: &mut Archive) -> anyhow::Result<()> {
         for (name, var) in named_vars(&self.map, "") {
-            let data = values(&[(name.clone(), var.clone())])?;
+            let data: Vec<f32> = var.as_tensor().flatten_all()?.to_vec1()?;
             archive.put_f32(&format!("learner.param.{name}"), var.dims(), &data);
         }
         for (tag, opt) in [("actor", &self.opt_actor), ("critic", &self.opt_critic)] {
@@ -224,9 +224,7 @@ impl Learner {
             None => None,
         };
         let rng = archive.u64("learner.rng", Some(1))?[0];
-        for ((name, var), p) in vars.iter().zip(&params) {
-            set_values(&[(name.clone(), var.clone())], p)?;
-        }
+        set_values(&vars, &params.concat())?;
         for (opt, (m, v, t)) in [&mut self.opt_actor, &mut self.opt_critic]
             .into_iter()
             .zip(opts)

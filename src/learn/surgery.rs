@@ -49,36 +49,35 @@ pub fn values(vars: &[(String, Var)]) -> Result<Vec<f32>> {
     Ok(out)
 }
 
-/// Overwrites the variables in order from one flat vector (the inverse of [`values`]).
-pub fn set_values(vars: &[(String, Var)], flat: &[f32]) -> Result<()> {
+/// `flat` split back over the variables in order, one tensor of each variable's shape.
+fn split(flat: &[f32], vars: &[(String, Var)]) -> Result<Vec<Tensor>> {
+    let mut out = Vec::with_capacity(vars.len());
     let mut at = 0;
     for (_, v) in vars {
         let n = v.elem_count();
-        let t =
-            Tensor::from_slice(&flat[at..at + n], v.shape(), v.device())?.to_dtype(v.dtype())?;
-        v.set(&t)?;
+        out.push(
+            Tensor::from_slice(&flat[at..at + n], v.shape(), v.device())?.to_dtype(v.dtype())?,
+        );
         at += n;
     }
-    assert_eq!(at, flat.len(), "value count does not match the variables");
+    assert_eq!(at, flat.len(), "flat length does not match the variables");
+    Ok(out)
+}
+
+/// Overwrites the variables in order from one flat vector (the inverse of [`values`]).
+pub fn set_values(vars: &[(String, Var)], flat: &[f32]) -> Result<()> {
+    for ((_, v), t) in vars.iter().zip(split(flat, vars)?) {
+        v.set(&t)?;
+    }
     Ok(())
 }
 
 /// A `GradStore` holding `flat` split back over the variables.
 pub fn unflatten(flat: &[f32], vars: &[(String, Var)]) -> Result<GradStore> {
     let mut store = GradStore::default();
-    let mut at = 0;
-    for (_, v) in vars {
-        let n = v.elem_count();
-        let t =
-            Tensor::from_slice(&flat[at..at + n], v.shape(), v.device())?.to_dtype(v.dtype())?;
+    for ((_, v), t) in vars.iter().zip(split(flat, vars)?) {
         store.insert(v.as_tensor(), t);
-        at += n;
     }
-    assert_eq!(
-        at,
-        flat.len(),
-        "gradient length does not match the variables"
-    );
     Ok(store)
 }
 

@@ -11,5 +11,6 @@ pub mod env;
 pub mod gpu;
 pub mod learn;
 pub mod output;
+pub mod report;
 pub mod sim;
 pub mod waveform;

@@ -294,3 +294,51 @@ fn damaged_and_misused_checkpoints_fail_clearly() {
     let o = bin(&["train", "--resume", empty.to_str().unwrap()]);
     assert!(text(&o).contains("no checkpoints"), "{}", text(&o));
 }
+
+#[test]
+fn zero_steps_writes_the_untrained_policy_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut params = Vec::new();
+    for name in ["a", "b"] {
+        let run = dir.path().join(name);
+        let o = bin(&train_args(run.to_str().unwrap(), "0", &[]));
+        assert!(o.status.success(), "{}", text(&o));
+        let files = fluxswarm_gpu::checkpoint::list(&run.join("checkpoints"));
+        assert_eq!(files.len(), 1);
+        assert!(
+            files[0].ends_with("update-0000000.safetensors"),
+            "{files:?}"
+        );
+        assert_eq!(read(&run.join("updates.csv")).lines().count(), 1);
+        let a = fluxswarm_gpu::checkpoint::Archive::load(&files[0]).unwrap();
+        assert_eq!(a.meta("update").unwrap(), "0");
+        assert_eq!(a.meta("global_step").unwrap(), "0");
+        let bytes = std::fs::read(&files[0]).unwrap();
+        let st = safetensors::SafeTensors::deserialize(&bytes).unwrap();
+        let mut p: Vec<(String, Vec<u8>)> = st
+            .tensors()
+            .into_iter()
+            .filter(|(n, _)| n.starts_with("learner.param.") || n.starts_with("env.fluid."))
+            .map(|(n, t)| (n, t.data().to_vec()))
+            .collect();
+        p.sort();
+        assert!(p.iter().any(|(n, _)| n.starts_with("learner.param.actor")));
+        params.push(p);
+    }
+    // The same seed gives the same untrained policy (and environments).
+    assert_eq!(params[0], params[1]);
+    let out = dir.path().join("e");
+    let o = bin(&[
+        "eval",
+        "--checkpoint",
+        dir.path().join("a").to_str().unwrap(),
+        "--episodes",
+        "1",
+        "--envs",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(read(&out.join("episodes.csv")).lines().count(), 2);
+}

@@ -4,6 +4,7 @@ mod bench;
 mod common;
 mod eval;
 mod info;
+mod report;
 mod rollout;
 mod simulate;
 mod train;
@@ -35,6 +36,8 @@ pub enum Command {
     Train(train::TrainArgs),
     /// Run a trained checkpoint for K episodes and write the same files as rollout.
     Eval(eval::EvalArgs),
+    /// Figures and report.md from train runs, baselines and before/after rollouts.
+    Report(report::ReportArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -45,5 +48,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Rollout(a) => rollout::run(a),
         Command::Train(a) => train::run(a),
         Command::Eval(a) => eval::run(a),
+        Command::Report(a) => report::run(a),
     }
 }

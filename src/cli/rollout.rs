@@ -137,9 +137,25 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
             &[]
         },
     )?;
-    std::fs::write(out.join("config.toml"), resolved.config.to_toml())
-        .context("writing config.toml")?;
     let ctx = args.common.open_gpu()?;
+    // The header names the policy and protocol (`report` labels baselines with it); the rest
+    // loads back with --config.
+    let header = format!(
+        "# fluxswarm-gpu {} rollout: policy {}{}, seed {}, {} environments, {} episodes, adapter {}\n",
+        env!("CARGO_PKG_VERSION"),
+        args.policy,
+        if args.deterministic {
+            " (mean action)"
+        } else {
+            ""
+        },
+        args.seed,
+        args.envs,
+        args.episodes,
+        ctx.describe()
+    );
+    std::fs::write(out.join("config.toml"), header + &resolved.config.to_toml())
+        .context("writing config.toml")?;
     let mut env = SwarmEnv::new(&ctx, &resolved, args.envs, args.seed)?;
     let c = &resolved.config;
     let n = env.n_agents();

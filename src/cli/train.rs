@@ -35,7 +35,8 @@ pub struct TrainArgs {
     #[arg(long)]
     pub envs: Option<usize>,
     /// Global environment steps (environments x control steps each); the paper's is 4 x 27,000
-    /// [default: 108000]. With --resume: the new total (default: the run's own).
+    /// [default: 108000]. With --resume: the new total (default: the run's own). 0 writes only
+    /// the untrained policy's checkpoint (update 0), e.g. for before/after comparisons.
     #[arg(long)]
     pub steps: Option<u64>,
     /// Seed of the networks, the environments and the sampling [default: 0].
@@ -242,8 +243,8 @@ fn fresh_plan(args: &mut TrainArgs) -> anyhow::Result<Plan> {
         bail!("train needs a swarm: swarm.count is 0");
     }
     let (envs, steps) = (args.envs.unwrap_or(4), args.steps.unwrap_or(108_000));
-    if envs == 0 || steps == 0 {
-        bail!("--envs and --steps must be positive");
+    if envs == 0 {
+        bail!("--envs must be positive");
     }
     let out = args
         .out

@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# Shared by the experiment scripts: set-up (the software Vulkan driver when there is no GPU
+# driver, a release build) and the helpers that make every experiment resumable: a stage whose
+# output is complete is skipped, a training run that stopped part-way continues with --resume.
+# Set FLUXSWARM_BIN to run a prebuilt binary instead of building one.
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+export NODEVICE_SELECT="${NODEVICE_SELECT:-1}"
+
+# The binary every script runs, built (and the driver installed) on first use.
+fluxswarm() {
+    if [ -z "${FLUXSWARM_BIN:-}" ]; then
+        bash "$ROOT/scripts/install-vulkan.sh"
+        (cd "$ROOT" && cargo build --release --quiet)
+        FLUXSWARM_BIN="$ROOT/target/release/fluxswarm-gpu"
+    fi
+    "$FLUXSWARM_BIN" "$@"
+}
+
+say() { echo "== $(date -u +%H:%M:%S) $*" >&2; }
+
+# train_run DIR SEED STEPS ENVS [train flags...]: trains into DIR, or continues DIR up to STEPS.
+train_run() {
+    local dir=$1 seed=$2 steps=$3 envs=$4
+    shift 4
+    if compgen -G "$dir/checkpoints/update-*.safetensors" >/dev/null; then
+        say "train $dir: continuing to $steps global steps"
+        fluxswarm train --resume "$dir" --steps "$steps" >/dev/null
+    else
+        say "train $dir: seed $seed, $envs environments, $steps global steps $*"
+        fluxswarm train --envs "$envs" --seed "$seed" --steps "$steps" --out "$dir" "$@" >/dev/null
+    fi
+}
+
+# rollout_once DIR ARGS...: `rollout ARGS --out DIR` unless DIR already holds its episodes.csv.
+rollout_once() {
+    local dir=$1
+    shift
+    if [ -s "$dir/episodes.csv" ] && [ -s "$dir/swarm.csv" ]; then
+        say "rollout $dir: done already"
+        return
+    fi
+    rm -rf "$dir"
+    say "rollout $dir: $*"
+    fluxswarm rollout "$@" --out "$dir" >/dev/null
+}
+
+# The seed a train run was started with (from the header of its config.toml).
+run_seed() {
+    sed -n -E '1s/.* seed ([0-9]+),.*/\1/p' "$1/config.toml"
+}
+
+# Common flags of the evaluation protocol (baselines, before and after learning).
+EVAL_ENVS=${EVAL_ENVS:-4}
+EVAL_EPISODES=${EVAL_EPISODES:-8}
+EVAL_SEED=${EVAL_SEED:-1}

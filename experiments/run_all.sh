@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Every paper experiment at one budget, then the report:
+#   baselines (direct-upstream, wall-hugging), MOMAPPO with PCGrad and the no-PCGrad ablation for
+#   each seed, before/after rollouts of the first seed's MOMAPPO run, and
+#   `fluxswarm-gpu report` over all of it (figures and report.md in OUT/report).
+# Usage: bash experiments/run_all.sh [--steps N] [--seeds K] [--envs E] [--out DIR]
+#   defaults: the paper's budget N = 108000 global steps (4 envs x 27,000), K = 3 seeds (1..K),
+#   E = 4, DIR = runs/experiments. Interrupt it at any time: re-running the same command
+#   continues every unfinished run (train --resume) and skips finished stages; a larger --steps
+#   extends the runs.
+source "$(dirname "$0")/common.sh"
+here="$(dirname "$0")"
+steps=108000 seeds=3 out=runs/experiments
+while [ $# -gt 0 ]; do
+    case $1 in
+        --steps) steps=$2; shift 2 ;;
+        --seeds) seeds=$2; shift 2 ;;
+        --envs) export ENVS=$2; shift 2 ;;
+        --out) out=$2; shift 2 ;;
+        -h|--help) sed -n '2,10p' "$0"; exit 0 ;;
+        *) echo "run_all.sh: unknown argument $1 (see --help)" >&2; exit 2 ;;
+    esac
+done
+mkdir -p "$out"
+if [ -z "${FLUXSWARM_BIN:-}" ]; then
+    bash "$ROOT/scripts/install-vulkan.sh"
+    (cd "$ROOT" && cargo build --release --quiet)
+    export FLUXSWARM_BIN="$ROOT/target/release/fluxswarm-gpu"
+fi
+export FLUXSWARM_BIN
+start=$(date +%s)
+bash "$here/baselines.sh" "$out/baselines"
+for seed in $(seq 1 "$seeds"); do
+    bash "$here/momappo.sh" "$steps" "$seed" "$out/momappo/seed$seed"
+    bash "$here/no_pcgrad.sh" "$steps" "$seed" "$out/no-pcgrad/seed$seed"
+done
+bash "$here/before_after.sh" "$out/momappo/seed1" "$out/momappo/before-after"
+say "report"
+fluxswarm report "$out"/momappo/seed* \
+    --compare "$out"/no-pcgrad/seed* \
+    --baseline "$out/baselines/upstream" --baseline "$out/baselines/wall" \
+    --before "$out/momappo/before-after/before" --after "$out/momappo/before-after/after" \
+    --out "$out/report"
+say "all experiments done in $(( $(date +%s) - start )) s: $out/report/report.md"

@@ -1,0 +1,242 @@
+//! PNG figures drawn with plotters into an RGB buffer and written with `image`, in DejaVu Sans
+//! embedded in the binary (`assets/fonts/`), so they render headless with no system fonts.
+//! A figure is a stack of panels sharing an x axis; each panel holds curves with optional
+//! bands, horizontal reference bands, and optionally a waveform on a secondary y axis.
+
+use std::path::Path;
+use std::sync::OnceLock;
+
+use anyhow::{Context, anyhow};
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+use super::stats::Band;
+
+const FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+
+/// Figure width and the height of one panel (px).
+pub const WIDTH: u32 = 1000;
+pub const PANEL_HEIGHT: u32 = 380;
+
+pub const BLUE: RGBColor = RGBColor(31, 119, 180);
+pub const ORANGE: RGBColor = RGBColor(255, 127, 14);
+pub const GREEN: RGBColor = RGBColor(44, 160, 44);
+pub const PURPLE: RGBColor = RGBColor(148, 103, 189);
+pub const BROWN: RGBColor = RGBColor(140, 86, 75);
+pub const GREY: RGBColor = RGBColor(120, 120, 120);
+pub const RED: RGBColor = RGBColor(214, 39, 40);
+
+/// A curve, with a shaded band when it has one.
+pub struct Curve {
+    pub label: String,
+    pub color: RGBColor,
+    pub dashed: bool,
+    pub band: Band,
+}
+
+impl Curve {
+    /// A line without a band.
+    pub fn line(label: impl Into<String>, color: RGBColor, points: &[(f64, f64)]) -> Self {
+        let (x, y): (Vec<f64>, Vec<f64>) = points.iter().copied().unzip();
+        Self {
+            label: label.into(),
+            color,
+            dashed: false,
+            band: Band {
+                x,
+                lo: y.clone(),
+                hi: y.clone(),
+                mean: y,
+            },
+        }
+    }
+}
+
+/// A horizontal reference: a value with a band lo..hi across the whole x range.
+pub struct Reference {
+    pub label: String,
+    pub color: RGBColor,
+    pub mean: f64,
+    pub lo: f64,
+    pub hi: f64,
+}
+
+/// A secondary-axis line (the inlet waveform).
+pub struct Secondary {
+    pub label: String,
+    pub y_desc: String,
+    pub points: Vec<(f64, f64)>,
+}
+
+pub struct Panel {
+    pub title: String,
+    pub x_desc: String,
+    pub y_desc: String,
+    pub curves: Vec<Curve>,
+    pub references: Vec<Reference>,
+    pub secondary: Option<Secondary>,
+    /// Draw the legend (a stack of panels showing the same series needs it once).
+    pub legend: bool,
+}
+
+fn register_font() -> anyhow::Result<()> {
+    static OK: OnceLock<bool> = OnceLock::new();
+    let ok = *OK.get_or_init(|| {
+        plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok()
+    });
+    ok.then_some(())
+        .ok_or_else(|| anyhow!("the embedded font (assets/fonts/DejaVuSans.ttf) did not load"))
+}
+
+/// Padded (min, max) of finite values; a unit range around a single value.
+fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    let span = hi - lo;
+    if span <= 1e-12 * hi.abs().max(1.0) {
+        let h = 0.5 * hi.abs().max(1e-3);
+        return (lo - h, hi + h);
+    }
+    (lo - pad * span, hi + pad * span)
+}
+
+/// Draws the panels stacked into `path` (WIDTH x panels * PANEL_HEIGHT px).
+pub fn save(path: &Path, panels: &[Panel]) -> anyhow::Result<()> {
+    register_font()?;
+    let (w, h) = (WIDTH, PANEL_HEIGHT * panels.len().max(1) as u32);
+    let mut buf = vec![0u8; (w * h * 3) as usize];
+    draw(&mut buf, (w, h), panels).map_err(|e| anyhow!("drawing {}: {e}", path.display()))?;
+    let img = image::RgbImage::from_raw(w, h, buf).context("figure buffer size")?;
+    img.save(path)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+fn draw(
+    buf: &mut [u8],
+    size: (u32, u32),
+    panels: &[Panel],
+) -> Result<(), Box<dyn std::error::Error>> {
+    let root = BitMapBackend::with_buffer(buf, size).into_drawing_area();
+    root.fill(&WHITE)?;
+    let areas = root.split_evenly((panels.len().max(1), 1));
+    for (panel, area) in panels.iter().zip(&areas) {
+        draw_panel(area, panel)?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    p: &Panel,
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    DB::ErrorType: 'static,
+{
+    let xs = p.curves.iter().flat_map(|c| c.band.x.iter().copied());
+    let xs = xs.chain(
+        p.secondary
+            .iter()
+            .flat_map(|s| s.points.iter().map(|q| q.0)),
+    );
+    let (x0, x1) = range(xs, 0.0);
+    let ys = p
+        .curves
+        .iter()
+        .flat_map(|c| c.band.lo.iter().chain(&c.band.hi).copied())
+        .chain(p.references.iter().flat_map(|r| [r.lo, r.hi]));
+    let (y0, y1) = range(ys, 0.06);
+    let mut builder = ChartBuilder::on(area);
+    builder
+        .caption(&p.title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(48)
+        .y_label_area_size(78);
+    if p.secondary.is_some() {
+        builder.right_y_label_area_size(78);
+    }
+    let (s0, s1) = range(
+        p.secondary
+            .iter()
+            .flat_map(|s| s.points.iter().map(|q| q.1)),
+        0.06,
+    );
+    let mut chart = builder
+        .build_cartesian_2d(x0..x1, y0..y1)?
+        .set_secondary_coord(x0..x1, s0..s1);
+    chart
+        .configure_mesh()
+        .x_desc(p.x_desc.as_str())
+        .y_desc(p.y_desc.as_str())
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 17))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.08))
+        .draw()?;
+    for r in &p.references {
+        let c = r.color;
+        if r.hi > r.lo {
+            chart.draw_series(std::iter::once(Polygon::new(
+                vec![(x0, r.lo), (x1, r.lo), (x1, r.hi), (x0, r.hi)],
+                c.mix(0.15).filled(),
+            )))?;
+        }
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(x0, r.mean), (x1, r.mean)],
+                10,
+                6,
+                c.stroke_width(2),
+            ))?
+            .label(r.label.as_str())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(2)));
+    }
+    for curve in &p.curves {
+        let b = &curve.band;
+        let c = curve.color;
+        if b.lo.iter().zip(&b.hi).any(|(l, h)| h > l) {
+            let mut poly: Vec<(f64, f64)> = b.x.iter().copied().zip(b.hi.iter().copied()).collect();
+            poly.extend(b.x.iter().copied().zip(b.lo.iter().copied()).rev());
+            chart.draw_series(std::iter::once(Polygon::new(poly, c.mix(0.2).filled())))?;
+        }
+        let pts: Vec<(f64, f64)> = b.x.iter().copied().zip(b.mean.iter().copied()).collect();
+        let style = c.stroke_width(2);
+        let anno = if curve.dashed {
+            chart.draw_series(DashedLineSeries::new(pts, 8, 5, style))?
+        } else {
+            chart.draw_series(LineSeries::new(pts, style))?
+        };
+        anno.label(curve.label.as_str())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
+    }
+    if let Some(s) = &p.secondary {
+        chart
+            .configure_secondary_axes()
+            .y_desc(s.y_desc.as_str())
+            .label_style(("sans-serif", 15))
+            .axis_desc_style(("sans-serif", 17))
+            .draw()?;
+        let style = GREY.mix(0.7).stroke_width(1);
+        chart
+            .draw_secondary_series(LineSeries::new(s.points.iter().copied(), style))?
+            .label(s.label.as_str())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
+    }
+    if !p.legend {
+        return Ok(());
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.3))
+        .label_font(("sans-serif", 14))
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()?;
+    Ok(())
+}

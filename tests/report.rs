@@ -1,0 +1,273 @@
+//! `fluxswarm-gpu report` on small synthetic run directories whose numbers are worked out by
+//! hand: every figure is written at its size and decodes, and report.md carries the numbers
+//! of the CSVs. Needs no adapter.
+
+use std::path::Path;
+use std::process::Command;
+
+use fluxswarm_gpu::config::Config;
+
+const EPISODES_HEADER: &str = "global_step,env,episode,steps,outcome,progress,energy,smoothness,progress_mean,energy_sum,smoothness_sum,scalar_return,final_x_com_mm";
+const UPDATES_HEADER: &str = "update,global_step,loss_progress,loss_energy,loss_smoothness,value_loss,entropy,mean_log_std,cos_pe,cos_ps,cos_es,conflict_pe,conflict_ps,conflict_es,sim_s,learn_s";
+
+fn config_text(header: &str, sets: &[&str]) -> String {
+    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+    let resolved = Config::load(None, &sets).expect("paper config");
+    format!("{header}\n{}", resolved.config.to_toml())
+}
+
+/// (global_step, env, episode, steps, outcome, progress, energy, smoothness)
+type Ep = (u64, usize, u64, u64, &'static str, f64, f64, f64);
+
+fn train_dir(dir: &Path, seed: u64, pcgrad: bool, episodes: &[Ep], updates: &[(u64, f64, f64)]) {
+    std::fs::create_dir_all(dir).unwrap();
+    let header = format!(
+        "# fluxswarm-gpu 0.1.0 train: seed {seed}, 2 environments, 64 global steps, adapter test adapter (Vulkan, Cpu)"
+    );
+    let sets: &[&str] = if pcgrad { &[] } else { &["train.pcgrad=false"] };
+    std::fs::write(dir.join("config.toml"), config_text(&header, sets)).unwrap();
+    let mut e = format!("{EPISODES_HEADER}\n");
+    for &(g, env, ep, steps, outcome, p, en, s) in episodes {
+        e += &format!("{g},{env},{ep},{steps},{outcome},{p},{en},{s},0,0,0,0,60\n");
+    }
+    std::fs::write(dir.join("episodes.csv"), e).unwrap();
+    let mut u = format!("{UPDATES_HEADER}\n");
+    for (i, &(g, sim, learn)) in updates.iter().enumerate() {
+        let c = 0.1 * i as f64;
+        u += &format!(
+            "{},{g},0,0,0,0,0,0,{c},{},{},0.25,0.5,0.75,{sim},{learn}\n",
+            i + 1,
+            -c,
+            0.5
+        );
+    }
+    std::fs::write(dir.join("updates.csv"), u).unwrap();
+}
+
+/// A rollout directory: episodes (steps, outcome, progress, energy, smoothness) in env 0, and
+/// a swarm.csv of `steps` rows per episode.
+fn rollout_dir(dir: &Path, policy: &str, episodes: &[(u64, &str, f64, f64, f64)]) {
+    std::fs::create_dir_all(dir).unwrap();
+    let header = format!(
+        "# fluxswarm-gpu 0.1.0 rollout: policy {policy}, seed 1, 1 environments, 2 episodes, adapter test adapter (Vulkan, Cpu)"
+    );
+    std::fs::write(dir.join("config.toml"), config_text(&header, &[])).unwrap();
+    let mut e = String::from(
+        "env,episode,steps,outcome,progress,energy,smoothness,progress_mean,energy_sum,smoothness_sum,scalar_return,final_x_com_mm\n",
+    );
+    let mut s = String::from(
+        "env,episode,step,t_s,inlet_u_m_s,x_com_mm,y_com_mm,sigma_x_mm,sigma_y_mm,r_g_mm\n",
+    );
+    for (ep, &(steps, outcome, p, en, sm)) in episodes.iter().enumerate() {
+        let final_x = 50.0 + steps as f64 + ep as f64;
+        e += &format!("0,{ep},{steps},{outcome},{p},{en},{sm},0,0,0,0,{final_x}\n");
+        for k in 0..=steps {
+            let x = 50.0 + k as f64 + ep as f64;
+            s += &format!(
+                "0,{ep},{k},{},{},{x},1,{},{},{}\n",
+                0.005 * k as f64,
+                0.1 * k as f64,
+                1.0 + 0.1 * k as f64,
+                0.4,
+                1.2
+            );
+        }
+    }
+    // The start of an episode that had not finished: not part of any figure or number.
+    s += &format!("0,{},0,0,0.008,999,1,999,999,999\n", episodes.len());
+    std::fs::write(dir.join("episodes.csv"), e).unwrap();
+    std::fs::write(dir.join("swarm.csv"), s).unwrap();
+}
+
+fn report(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_fluxswarm-gpu"))
+        .arg("report")
+        .args(args)
+        .output()
+        .expect("running fluxswarm-gpu report")
+}
+
+#[test]
+fn report_draws_every_figure_and_reports_the_csv_numbers() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = tmp.path();
+    // Seed 1: env 0 progress 1..6 (the last 5 average 4), env 1 progress 10, 20 (15).
+    // Seed 2: env 0 progress 7 (7), env 1 progress 2, 4, 6 (4).
+    // Final progress over (seed, env): {4, 15, 7, 4}: mean 7.5, population sigma 4.5.
+    // Smoothness: seed 1 env 0 all 1.0, env 1 all 0.5; seed 2 env 0 0.8, env 1 0.6:
+    // mean 0.725, sigma sqrt((0.275^2 + 0.225^2 + 0.075^2 + 0.125^2) / 4) = 0.19203.
+    // Successes: seed 1 env 0 episode 5 (40 steps, 0.2 s), seed 2 env 1 episode 2 (60 steps,
+    // 0.3 s): 2 of 12 episodes = 16.7 %, mean time to success 0.25 s. One diverged episode.
+    // Wall time per run: (1 + 1.5 + 2 + 2.5) + 4 x 0.25 = 8 s.
+    let seed1: Vec<Ep> = (0..6)
+        .map(|i| {
+            let outcome = if i == 5 { "success" } else { "failure" };
+            (
+                16 * (i + 1),
+                0,
+                i,
+                if i == 5 { 40 } else { 20 },
+                outcome,
+                (i + 1) as f64,
+                0.5,
+                1.0,
+            )
+        })
+        .chain([
+            (32, 1, 0, 20, "diverged", 10.0, 0.5, 0.5),
+            (64, 1, 1, 20, "failure", 20.0, 0.5, 0.5),
+        ])
+        .collect();
+    let seed2: Vec<Ep> = vec![
+        (48, 0, 0, 20, "timeout", 7.0, 0.5, 0.8),
+        (16, 1, 0, 20, "failure", 2.0, 0.5, 0.6),
+        (32, 1, 1, 20, "failure", 4.0, 0.5, 0.6),
+        (64, 1, 2, 60, "success", 6.0, 0.5, 0.6),
+    ];
+    let updates = [
+        (16, 1.0, 0.25),
+        (32, 1.5, 0.25),
+        (48, 2.0, 0.25),
+        (64, 2.5, 0.25),
+    ];
+    train_dir(&root.join("pc1"), 1, true, &seed1, &updates);
+    train_dir(&root.join("pc2"), 2, true, &seed2, &updates);
+    // The compared experiment: one run, progress -1, -3 in env 0 (final -2).
+    train_dir(
+        &root.join("nopc1"),
+        1,
+        false,
+        &[
+            (16, 0, 0, 20, "failure", -1.0, 0.1, 0.2),
+            (48, 0, 1, 20, "failure", -3.0, 0.1, 0.2),
+        ],
+        &updates,
+    );
+    rollout_dir(
+        &root.join("upstream"),
+        "upstream",
+        &[
+            (25, "failure", -120.0, -1.0, 1.0),
+            (25, "failure", -130.0, -1.0, 1.0),
+        ],
+    );
+    rollout_dir(
+        &root.join("before"),
+        "runs/x/untrained",
+        &[
+            (4, "failure", -10.0, 0.0, 0.5),
+            (6, "failure", -20.0, 0.2, 0.7),
+        ],
+    );
+    rollout_dir(
+        &root.join("after"),
+        "runs/x/seed1",
+        &[
+            (8, "success", 5.0, 0.9, 0.95),
+            (8, "failure", -5.0, 0.7, 0.85),
+        ],
+    );
+    let out = root.join("report");
+    let p = |n: &str| root.join(n).display().to_string();
+    let o = report(&[
+        &p("pc1"),
+        &p("pc2"),
+        "--compare",
+        &p("nopc1"),
+        "--baseline",
+        &p("upstream"),
+        "--before",
+        &p("before"),
+        "--after",
+        &p("after"),
+        "--out",
+        &p("report"),
+    ]);
+    assert!(
+        o.status.success(),
+        "report failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    for (name, panels) in [
+        ("learning_curves.png", 3),
+        ("gradient_conflicts.png", 2),
+        ("dispersion.png", 2),
+        ("com_rg.png", 2),
+    ] {
+        let path = out.join(name);
+        let img = image::open(&path)
+            .unwrap_or_else(|e| panic!("{name} does not decode: {e}"))
+            .to_rgb8();
+        assert_eq!(img.dimensions(), (1000, 380 * panels), "{name}");
+        // Not blank: curves, text and bands use many colours.
+        let mut colours: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+        colours.sort();
+        colours.dedup();
+        assert!(
+            colours.len() > 50,
+            "{name} has only {} colours",
+            colours.len()
+        );
+    }
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let row = |label: &str| -> &str {
+        md.lines()
+            .find(|l| l.starts_with(&format!("| {label} |")))
+            .unwrap_or_else(|| panic!("no row {label} in\n{md}"))
+    };
+    let main = row("MOMAPPO + PCGrad (2 seeds)");
+    for want in [
+        "| 2 | 64 | 8 | 12 |",
+        "16.7 %",
+        "| 0.250 |",
+        "| 1 |", // diverged
+        "7.50 ± 4.50",
+        "0.500 ± 0.000",
+        "0.725 ± 0.192",
+        "2 success, 8 failure, 1 timeout, 1 diverged",
+    ] {
+        assert!(main.contains(want), "`{want}` missing from {main}");
+    }
+    let ablation = row("MOMAPPO, no PCGrad");
+    assert!(ablation.contains("-2.00 ± 0.00"), "{ablation}");
+    assert!(ablation.contains("| 0.0 % | — |"), "{ablation}");
+    let up = row("baseline");
+    assert!(
+        up.contains("direct-upstream") && up.contains("-125.00 ± 5.00"),
+        "{up}"
+    );
+    assert!(
+        up.contains("-1.000 ± 0.000") && up.contains("| 25.0 |"),
+        "{up}"
+    );
+    let after = row("after learning");
+    // Final x_COM: 50 + 8 + episode -> 58, 59: mean 58.5.
+    assert!(
+        after.contains("| 0.040 |") && after.contains("58.50"),
+        "{after}"
+    );
+    assert!(md.contains("[dispersion.png](dispersion.png)"));
+    // Only finished episodes' steps enter the before/after figures.
+    let after = fluxswarm_gpu::report::data::RolloutRun::read(&root.join("after")).unwrap();
+    assert_eq!(after.swarm.len(), 2 * 9);
+    assert!(after.swarm.iter().all(|s| s.x_com_mm < 100.0));
+    assert!(md.contains("test adapter (Vulkan, Cpu)"));
+}
+
+#[test]
+fn report_refuses_what_it_cannot_use() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = report(&[&tmp.path().display().to_string()]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("config.toml"), "{err}");
+    rollout_dir(
+        &tmp.path().join("r"),
+        "upstream",
+        &[(2, "failure", 0.0, 0.0, 1.0)],
+    );
+    let o = report(&[&tmp.path().join("r").display().to_string()]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("no updates.csv"), "{err}");
+}

@@ -106,6 +106,29 @@ fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
     (lo - pad * span, hi + pad * span)
 }
 
+/// Decimals that tell apart ticks about a tenth of `span` apart.
+fn decimals(span: f64) -> usize {
+    let step = span.abs() / 10.0;
+    if step >= 1.0 || step <= 0.0 || !step.is_finite() {
+        0
+    } else {
+        (-step.log10().floor()) as usize
+    }
+}
+
+/// A tick label with `d` decimals, never "-0".
+fn tick(v: f64, d: usize) -> String {
+    let s = format!("{v:.d$}");
+    if s.trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.')
+    {
+        s.trim_start_matches('-').to_string()
+    } else {
+        s
+    }
+}
+
 /// Draws the panels stacked into `path` (WIDTH x panels * PANEL_HEIGHT px).
 pub fn save(path: &Path, panels: &[Panel]) -> anyhow::Result<()> {
     register_font()?;
@@ -170,8 +193,13 @@ where
     let mut chart = builder
         .build_cartesian_2d(x0..x1, y0..y1)?
         .set_secondary_coord(x0..x1, s0..s1);
+    let (xd, yd) = (decimals(x1 - x0), decimals(y1 - y0));
+    let x_fmt = move |v: &f64| tick(*v, xd);
+    let y_fmt = move |v: &f64| tick(*v, yd);
     chart
         .configure_mesh()
+        .x_label_formatter(&x_fmt)
+        .y_label_formatter(&y_fmt)
         .x_desc(p.x_desc.as_str())
         .y_desc(p.y_desc.as_str())
         .label_style(("sans-serif", 15))
@@ -216,8 +244,11 @@ where
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
     }
     if let Some(s) = &p.secondary {
+        let sd = decimals(s1 - s0);
+        let s_fmt = move |v: &f64| tick(*v, sd);
         chart
             .configure_secondary_axes()
+            .y_label_formatter(&s_fmt)
             .y_desc(s.y_desc.as_str())
             .label_style(("sans-serif", 15))
             .axis_desc_style(("sans-serif", 17))

@@ -7,6 +7,8 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 use anyhow::{Context, anyhow};
+use image::ImageEncoder;
+use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
@@ -135,8 +137,16 @@ pub fn save(path: &Path, panels: &[Panel]) -> anyhow::Result<()> {
     let (w, h) = (WIDTH, PANEL_HEIGHT * panels.len().max(1) as u32);
     let mut buf = vec![0u8; (w * h * 3) as usize];
     draw(&mut buf, (w, h), panels).map_err(|e| anyhow!("drawing {}: {e}", path.display()))?;
-    let img = image::RgbImage::from_raw(w, h, buf).context("figure buffer size")?;
-    img.save(path)
+    // Best compression: figures are committed and shown in READMEs.
+    let file = std::fs::File::create(path)
+        .with_context(|| format!("writing {}: is the --out directory writable?", path.display()))?;
+    let encoder = PngEncoder::new_with_quality(
+        std::io::BufWriter::new(file),
+        CompressionType::Best,
+        FilterType::Adaptive,
+    );
+    encoder
+        .write_image(&buf, w, h, image::ExtendedColorType::Rgb8)
         .with_context(|| format!("writing {}", path.display()))
 }
 

@@ -70,8 +70,6 @@ pub struct TrainSummary {
     pub global_steps: Vec<u64>,
     /// Simulation + learning wall time of each run (s).
     pub wall_s: Vec<f64>,
-    /// Distinct adapters the runs name.
-    pub adapters: Vec<String>,
 }
 
 fn outcome_counts<'a>(episodes: impl Iterator<Item = &'a Episode>) -> [usize; 4] {
@@ -91,13 +89,6 @@ fn mean_success_time(episodes: &[&Episode], dt: f64) -> Option<f64> {
         .map(|e| e.steps as f64 * dt)
         .collect();
     (!t.is_empty()).then(|| t.iter().sum::<f64>() / t.len() as f64)
-}
-
-fn distinct_adapters<'a>(names: impl Iterator<Item = &'a Option<String>>) -> Vec<String> {
-    let mut a: Vec<String> = names.flatten().cloned().collect();
-    a.sort();
-    a.dedup();
-    a
 }
 
 pub fn train_summary(runs: &[TrainRun]) -> TrainSummary {
@@ -122,7 +113,6 @@ pub fn train_summary(runs: &[TrainRun]) -> TrainSummary {
         mean_time_to_success_s: mean_success_time(&all, dt),
         global_steps: runs.iter().map(TrainRun::global_steps).collect(),
         wall_s: runs.iter().map(TrainRun::wall_s).collect(),
-        adapters: distinct_adapters(runs.iter().map(|r| &r.info.adapter)),
     }
 }
 

@@ -138,8 +138,12 @@ pub fn save(path: &Path, panels: &[Panel]) -> anyhow::Result<()> {
     let mut buf = vec![0u8; (w * h * 3) as usize];
     draw(&mut buf, (w, h), panels).map_err(|e| anyhow!("drawing {}: {e}", path.display()))?;
     // Best compression: figures are committed and shown in READMEs.
-    let file = std::fs::File::create(path)
-        .with_context(|| format!("writing {}: is the --out directory writable?", path.display()))?;
+    let file = std::fs::File::create(path).with_context(|| {
+        format!(
+            "writing {}: is the --out directory writable?",
+            path.display()
+        )
+    })?;
     let encoder = PngEncoder::new_with_quality(
         std::io::BufWriter::new(file),
         CompressionType::Best,

@@ -61,7 +61,7 @@ pub fn mean_ci95(values: &[f64]) -> (f64, f64) {
 }
 
 /// A curve with a band around it: `lo <= mean <= hi` at each `x`.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Band {
     pub x: Vec<f64>,
     pub mean: Vec<f64>,
@@ -70,8 +70,12 @@ pub struct Band {
 }
 
 impl Band {
-    pub fn is_empty(&self) -> bool {
-        self.x.is_empty()
+    /// Appends a point: `mean` with the band `mean - below ..= mean + above`.
+    fn push(&mut self, x: f64, mean: f64, below: f64, above: f64) {
+        self.x.push(x);
+        self.mean.push(mean);
+        self.lo.push(mean - below);
+        self.hi.push(mean + above);
     }
 
     /// The value at `x` of the step function through the means (None before the first point).
@@ -91,23 +95,14 @@ pub fn step_value(xs: &[f64], ys: &[f64], x: f64) -> Option<f64> {
 /// `(x ascending, value)`, on the union of their x. At each x only the series that have begun
 /// count.
 pub fn across_series_std(series: &[(Vec<f64>, Vec<f64>)]) -> Band {
-    let grid = union_grid(series.iter().map(|s| s.0.as_slice()));
-    let mut band = Band {
-        x: Vec::new(),
-        mean: Vec::new(),
-        lo: Vec::new(),
-        hi: Vec::new(),
-    };
-    for g in grid {
+    let mut band = Band::default();
+    for g in union_grid(series.iter().map(|s| s.0.as_slice())) {
         let vals: Vec<f64> = series
             .iter()
             .filter_map(|(xs, ys)| step_value(xs, ys, g))
             .collect();
         let (m, s) = mean_std(&vals);
-        band.x.push(g);
-        band.mean.push(m);
-        band.lo.push(m - s);
-        band.hi.push(m + s);
+        band.push(g, m, s, s);
     }
     band
 }
@@ -127,19 +122,11 @@ pub fn across_seeds_ci(curves: &[Band]) -> Band {
         .map(|c| c.x.last().copied().unwrap_or(f64::NEG_INFINITY))
         .fold(f64::INFINITY, f64::min);
     let grid = union_grid(curves.iter().map(|c| c.x.as_slice()));
-    let mut band = Band {
-        x: Vec::new(),
-        mean: Vec::new(),
-        lo: Vec::new(),
-        hi: Vec::new(),
-    };
+    let mut band = Band::default();
     for g in grid.into_iter().filter(|&g| g >= start && g <= end) {
         let vals: Vec<f64> = curves.iter().filter_map(|c| c.at(g)).collect();
         let (m, h) = mean_ci95(&vals);
-        band.x.push(g);
-        band.mean.push(m);
-        band.lo.push(m - h);
-        band.hi.push(m + h);
+        band.push(g, m, h, h);
     }
     band
 }

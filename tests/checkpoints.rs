@@ -342,3 +342,23 @@ fn zero_steps_writes_the_untrained_policy_only() {
     assert!(o.status.success(), "{}", text(&o));
     assert_eq!(read(&out.join("episodes.csv")).lines().count(), 2);
 }
+
+#[test]
+fn a_checkpoint_before_the_first_episode_keeps_the_episodes_header() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let run_s = run.to_str().unwrap();
+    // One update of 2 x 4 steps, episodes of up to 50 steps: none ends before the checkpoint.
+    let mut args = train_args(run_s, "8", &[]);
+    args.extend(["--set", "env.max_steps=50"]); // after SMALL_SWARM's, so it wins
+    let o = bin(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(read(&run.join("episodes.csv")).lines().count(), 1);
+    let o = bin(&["train", "--resume", run_s, "--steps", "8"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let episodes = read(&run.join("episodes.csv"));
+    assert!(
+        episodes.starts_with("global_step,env,episode,"),
+        "episodes.csv lost its header: {episodes:?}"
+    );
+}

@@ -22,6 +22,9 @@ impl EpisodesCsv {
         } else {
             writeln!(out, "{COLUMNS}")?;
         }
+        // The header is on disk before any episode: a checkpoint taken before the first
+        // episode records its length, and a resume cuts the file back to that length.
+        out.flush()?;
         Ok(Self { out, global_step })
     }
 
@@ -34,7 +37,7 @@ impl EpisodesCsv {
         })
     }
 
-    /// Bytes written so far (everything is flushed after each row).
+    /// Bytes on disk so far (the header and every row are flushed as they are written).
     pub fn bytes_written(&self) -> std::io::Result<u64> {
         Ok(self.out.get_ref().metadata()?.len())
     }

@@ -9,6 +9,7 @@ use std::sync::OnceLock;
 use anyhow::{Context, anyhow};
 use image::ImageEncoder;
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+use plotters::element::ComposedElement;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
@@ -108,6 +109,21 @@ fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
     (lo - pad * span, hi + pad * span)
 }
 
+type Segment = PathElement<(i32, i32)>;
+type LegendLine<DB> = ComposedElement<(i32, i32), DB, Segment, Segment>;
+
+/// A legend sample 24 px long, solid or dashed like its series.
+fn legend_line<DB: DrawingBackend>(
+    at: (i32, i32),
+    dashed: bool,
+    style: ShapeStyle,
+) -> LegendLine<DB> {
+    let gap = if dashed { 6 } else { 0 };
+    EmptyElement::at(at)
+        + PathElement::new(vec![(0, 0), (9, 0)], style)
+        + PathElement::new(vec![(9 + gap, 0), (24, 0)], style)
+}
+
 /// Decimals that tell apart ticks about a tenth of `span` apart.
 fn decimals(span: f64) -> usize {
     let step = span.abs() / 10.0;
@@ -197,6 +213,9 @@ where
         .y_label_area_size(78);
     if p.secondary.is_some() {
         builder.right_y_label_area_size(78);
+    } else {
+        // Room for the last x tick label.
+        builder.margin_right(36);
     }
     let (s0, s1) = range(
         p.secondary
@@ -237,7 +256,7 @@ where
                 c.stroke_width(2),
             ))?
             .label(r.label.as_str())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(2)));
+            .legend(move |at| legend_line(at, true, c.stroke_width(2)));
     }
     for curve in &p.curves {
         let b = &curve.band;
@@ -249,13 +268,14 @@ where
         }
         let pts: Vec<(f64, f64)> = b.x.iter().copied().zip(b.mean.iter().copied()).collect();
         let style = c.stroke_width(2);
-        let anno = if curve.dashed {
+        let dashed = curve.dashed;
+        let anno = if dashed {
             chart.draw_series(DashedLineSeries::new(pts, 8, 5, style))?
         } else {
             chart.draw_series(LineSeries::new(pts, style))?
         };
         anno.label(curve.label.as_str())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
+            .legend(move |at| legend_line(at, dashed, style));
     }
     if let Some(s) = &p.secondary {
         let sd = decimals(s1 - s0);

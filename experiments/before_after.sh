@@ -14,6 +14,12 @@ if ! compgen -G "$out/untrained/checkpoints/update-*.safetensors" >/dev/null; th
     fluxswarm train --envs "${ENVS:-4}" --seed "$seed" --steps 0 --out "$out/untrained" \
         $(grep -q '^pcgrad = false' "$run/config.toml" && echo --no-pcgrad) >/dev/null
 fi
+# A run extended since its "after" rollout (a larger --steps) gets a new one.
+newest=$(ls "$run"/checkpoints/update-*.safetensors | tail -n 1)
+if [ -s "$out/after/episodes.csv" ] && [ "$newest" -nt "$out/after/episodes.csv" ]; then
+    say "$run has a newer checkpoint than its after-learning rollout: redoing it"
+    rm -rf "$out/after"
+fi
 for which in before after; do
     ck=$run
     [ "$which" = before ] && ck=$out/untrained

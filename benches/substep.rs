@@ -1,9 +1,10 @@
 //! One control step (20 substeps) at the configured grid with the swarm, two ways:
 //! - `gpu`: `FluidBatch::step` on the adapter `auto` picks (lavapipe on the development
 //!   machines), one submission and one read-back;
-//! - `native`: the yardstick, the plain-Rust CPU twins of the same kernels (`sim::cpu`),
-//!   one environment per rayon task. They are written for clarity (a fresh buffer per pass),
-//!   not tuned, so this measures what plain Rust does on these cores, not its limit.
+//! - `native`: the yardstick, `sim::native::NativeBatch`: the same control step in plain Rust
+//!   written for speed (bit-identical to the twins), one environment per rayon task;
+//! - `twins`: the plain-Rust CPU twins of the kernels (`sim::cpu`), written for clarity (they
+//!   recompute the diffused field at every sample), one environment per rayon task.
 //!
 //! Size from the environment: FLUXSWARM_BENCH_ENVS (default 16) and FLUXSWARM_BENCH_NX
 //! (default 1000, the paper's grid; the channel length scales with it, so dx stays the paper's).
@@ -12,10 +13,10 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use fluxswarm_gpu::config::Config;
-use fluxswarm_gpu::gpu::kernels::FieldBinding;
 use fluxswarm_gpu::gpu::{AdapterChoice, GpuContext};
 use fluxswarm_gpu::sim::FluidBatch;
 use fluxswarm_gpu::sim::cpu::CpuBatch;
+use fluxswarm_gpu::sim::native::NativeBatch;
 use rayon::prelude::*;
 
 fn env_usize(key: &str, default: usize) -> usize {
@@ -43,31 +44,15 @@ fn substep(c: &mut Criterion) {
     let n = batch.n_members();
     batch.set_all_actions(&vec![[-1.0, 0.0]; envs * n]);
 
-    // The yardstick starts from the same state, one single-environment CpuBatch per task.
-    let one = FluidBatch::new(&ctx, &resolved, 1).expect("batch");
-    let read = |w| one.read_all(&ctx, w).expect("read-back");
-    let boxes: Vec<[f32; 4]> = read(FieldBinding::SwarmBox)
-        .chunks(8)
-        .map(|c| [c[0], c[1], c[2], c[3]])
-        .collect();
-    let body: Vec<[f32; 4]> = read(FieldBinding::Body)
-        .chunks(4)
-        .map(|c| [c[0], c[1], c[2], c[3]])
-        .collect();
-    let template = CpuBatch {
-        params: *one.params(),
-        scheme: resolved.config.solver.advection,
-        poisson: read(FieldBinding::Poisson),
-        u: read(FieldBinding::UIn),
-        v: read(FieldBinding::VIn),
-        p: read(FieldBinding::Pressure),
-        body,
-        divstar: vec![0.0; nx],
-        members: one.members().to_vec(),
-        actions: vec![[-1.0, 0.0]; n],
-        boxes,
-    };
-    let mut natives: Vec<CpuBatch> = (0..envs).map(|_| template.clone()).collect();
+    // The yardstick and the twins start from the same state, one environment per task.
+    let mut template = FluidBatch::new(&ctx, &resolved, envs)
+        .expect("batch")
+        .to_cpu(&ctx)
+        .expect("read-back");
+    template.actions = vec![[-1.0, 0.0]; envs * n];
+    let control_dt = resolved.config.time.control_dt_s;
+    let mut natives = NativeBatch::new(&template, resolved.waveform.clone(), control_dt);
+    let mut twins: Vec<CpuBatch> = (0..envs).map(|e| natives.env(e).clone()).collect();
     let substeps = resolved.config.time.substeps as usize;
     let inlet: Vec<f32> = (0..substeps)
         .map(|s| {
@@ -81,9 +66,10 @@ fn substep(c: &mut Criterion) {
     group.sample_size(10);
     group.throughput(Throughput::Elements(envs as u64));
     group.bench_function("gpu", |b| b.iter(|| batch.step(&ctx).expect("step")));
-    group.bench_function("native", |b| {
+    group.bench_function("native", |b| b.iter(|| natives.step()));
+    group.bench_function("twins", |b| {
         b.iter(|| {
-            natives.par_iter_mut().for_each(|cpu| {
+            twins.par_iter_mut().for_each(|cpu| {
                 cpu.step(&inlet);
             })
         })

@@ -14,6 +14,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use fluxswarm_gpu::gpu::GpuContext;
 use fluxswarm_gpu::output::run_dir;
+use fluxswarm_gpu::sim::native::NativeBatch;
 use fluxswarm_gpu::sim::{FluidBatch, Stage, fluid::PRESSURE_ITERATIONS_PER_SUBSTEP};
 
 use super::common::ConfigArgs;
@@ -31,6 +32,11 @@ pub struct BenchArgs {
     /// Output directory (default runs/bench-<YYYYmmdd-HHMMSS>).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Also time the native yardstick (`sim::native`: the same control step in plain Rust on
+    /// the CPU, one environment per thread) at every batch size, after the adapter's runs,
+    /// and write `native.csv` with the ratio.
+    #[arg(long)]
+    pub native: bool,
 }
 
 struct Row {
@@ -238,7 +244,83 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         rows.push(r);
     }
     write_kernel_table(&out, &rows, &adapter)?;
+    if args.native {
+        write_native_table(&ctx, &args, &resolved, &out, &rows, &adapter)?;
+    }
     println!("{}", out.display());
+    Ok(())
+}
+
+/// Median control-step time of the native yardstick with `envs` environments, started from
+/// the same state as the adapter's batch (developed Poiseuille flow, members at rest).
+fn native_step_s(
+    ctx: &GpuContext,
+    args: &BenchArgs,
+    resolved: &fluxswarm_gpu::config::Resolved,
+    envs: usize,
+) -> anyhow::Result<f64> {
+    let start = FluidBatch::new(ctx, resolved, envs)?.to_cpu(ctx)?;
+    let mut batch = NativeBatch::new(
+        &start,
+        resolved.waveform.clone(),
+        resolved.config.time.control_dt_s,
+    );
+    batch.step(); // warm-up: first touches of the scratch
+    let mut times = Vec::new();
+    let clock = Instant::now();
+    while times.len() < 3 || clock.elapsed().as_secs_f64() < args.seconds {
+        let s = Instant::now();
+        let health = batch.step();
+        times.push(s.elapsed().as_secs_f64());
+        if let Some(e) = health.iter().position(|h| h.diverged()) {
+            bail!("environment {e} diverged during the native benchmark");
+        }
+    }
+    Ok(median(times))
+}
+
+/// Times the native yardstick at every batch size, prints it beside the adapter's rate and
+/// writes `native.csv`: envs,native_env_steps_per_s,adapter_env_steps_per_s,native_over_adapter,
+/// threads,adapter.
+fn write_native_table(
+    ctx: &GpuContext,
+    args: &BenchArgs,
+    resolved: &fluxswarm_gpu::config::Resolved,
+    out: &std::path::Path,
+    rows: &[Row],
+    adapter: &str,
+) -> anyhow::Result<()> {
+    let threads = rayon::current_num_threads();
+    println!(
+        "\nnative yardstick (plain Rust, same control step as the CPU twins bit for bit, {threads} threads, one environment per task)"
+    );
+    println!(
+        "{:>5} {:>20} {:>21} {:>14}",
+        "envs", "native env_steps/s", "adapter env_steps/s", "native/adapter"
+    );
+    let mut csv = std::fs::File::create(out.join("native.csv")).context("creating native.csv")?;
+    writeln!(
+        csv,
+        "envs,native_env_steps_per_s,adapter_env_steps_per_s,native_over_adapter,threads,adapter"
+    )?;
+    for r in rows {
+        let native = r.envs as f64 / native_step_s(ctx, args, resolved, r.envs)?;
+        let ratio = native / r.env_steps_per_s;
+        println!(
+            "{:>5} {:>20.2} {:>21.2} {:>14.2}",
+            r.envs, native, r.env_steps_per_s, ratio
+        );
+        writeln!(
+            csv,
+            "{},{:.4},{:.4},{:.4},{threads},\"{}\"",
+            r.envs,
+            native,
+            r.env_steps_per_s,
+            ratio,
+            adapter.replace('"', "'")
+        )?;
+        csv.flush()?;
+    }
     Ok(())
 }
 

@@ -18,6 +18,7 @@ mod checkpoint;
 use thiserror::Error;
 use wgpu::util::DeviceExt;
 
+use super::cpu::CpuBatch;
 use super::{EnvHealth, Grid, poisson::PoissonTables};
 use crate::config::{Advection, Backtrace, Resolved};
 use crate::gpu::kernels::{
@@ -203,6 +204,48 @@ pub fn max_batch(limits: &wgpu::Limits, grid: &Grid) -> usize {
     by_binding.min(limits.max_compute_workgroups_per_dimension as usize)
 }
 
+/// The kernels' batch constants for `n_env` environments of this configuration (no GPU needed:
+/// the CPU twins and the native yardstick take the same struct).
+pub fn batch_params(resolved: &Resolved, n_env: usize) -> GpuParams {
+    let config = &resolved.config;
+    let grid = Grid::from_config(config);
+    let swarm = &config.swarm;
+    let substeps = config.time.substeps as usize;
+    let n_members = swarm.count as usize;
+    // Pressure samples just outside the painted solid: R_s = r + 2 dx (SPEC section 2).
+    let sample_radius = swarm.radius_m + 2.0 * grid.dx();
+    GpuParams {
+        nx: grid.nx as u32,
+        ny: grid.ny as u32,
+        n_env: n_env as u32,
+        substeps: substeps as u32,
+        dx: grid.dx() as f32,
+        dy: grid.dy() as f32,
+        dt: config.dt_sub() as f32,
+        nu: config.kinematic_viscosity() as f32,
+        rho: config.fluid.density_kg_m3 as f32,
+        height: grid.height_m as f32,
+        rk2: (config.solver.backtrace == Backtrace::Rk2) as u32,
+        pad1: 0.0,
+        inv_dx: (1.0 / grid.dx()) as f32,
+        inv_dy: (1.0 / grid.dy()) as f32,
+        length: grid.length_m as f32,
+        mu: config.fluid.viscosity_pa_s as f32,
+        n_members: n_members as u32,
+        drag: config.swarm.drag as u32,
+        radius: swarm.radius_m as f32,
+        sample_radius: sample_radius as f32,
+        depth: (4.0 * swarm.radius_m * swarm.radius_m / (3.0 * sample_radius)) as f32,
+        mass: swarm.mass_kg() as f32,
+        max_thrust: swarm.max_thrust_n as f32,
+        pad4: 0.0,
+        pad5: 0.0,
+        pad6: 0.0,
+        pad7: 0.0,
+        pad8: 0.0,
+    }
+}
+
 impl FluidBatch {
     pub fn new(ctx: &GpuContext, resolved: &Resolved, n_env: usize) -> Result<Self, SimError> {
         let config = &resolved.config;
@@ -224,8 +267,6 @@ impl FluidBatch {
         let substeps = config.time.substeps as usize;
         let swarm = &config.swarm;
         let n_members = swarm.count as usize;
-        // Pressure samples just outside the painted solid: R_s = r + 2 dx (SPEC section 2).
-        let sample_radius = swarm.radius_m + 2.0 * grid.dx();
         let initial_members: Vec<GpuMember> = swarm
             .initial_positions(grid.height_m)
             .iter()
@@ -237,36 +278,7 @@ impl FluidBatch {
                 pad: [0.0; 3],
             })
             .collect();
-        let params = GpuParams {
-            nx: grid.nx as u32,
-            ny: grid.ny as u32,
-            n_env: n_env as u32,
-            substeps: substeps as u32,
-            dx: grid.dx() as f32,
-            dy: grid.dy() as f32,
-            dt: config.dt_sub() as f32,
-            nu: config.kinematic_viscosity() as f32,
-            rho: config.fluid.density_kg_m3 as f32,
-            height: grid.height_m as f32,
-            rk2: (config.solver.backtrace == Backtrace::Rk2) as u32,
-            pad1: 0.0,
-            inv_dx: (1.0 / grid.dx()) as f32,
-            inv_dy: (1.0 / grid.dy()) as f32,
-            length: grid.length_m as f32,
-            mu: config.fluid.viscosity_pa_s as f32,
-            n_members: n_members as u32,
-            drag: config.swarm.drag as u32,
-            radius: swarm.radius_m as f32,
-            sample_radius: sample_radius as f32,
-            depth: (4.0 * swarm.radius_m * swarm.radius_m / (3.0 * sample_radius)) as f32,
-            mass: swarm.mass_kg() as f32,
-            max_thrust: swarm.max_thrust_n as f32,
-            pad4: 0.0,
-            pad5: 0.0,
-            pad6: 0.0,
-            pad7: 0.0,
-            pad8: 0.0,
-        };
+        let params = batch_params(resolved, n_env);
         let device = &ctx.device;
         let layout = FieldLayout::new(device);
         let pipelines = Pipelines {
@@ -712,6 +724,42 @@ impl FluidBatch {
             self.words_per_env(which) * self.n_env
         };
         Ok(read_buffer(ctx, self.buffer(which), 0, (words * 4) as u64)?)
+    }
+
+    /// The whole batch's current state as a [`CpuBatch`] (fields, body, members, raw actions,
+    /// swarm boxes, Poisson tables): the starting point of the CPU twins and the native
+    /// yardstick. A full read-back; not for the stepping loop.
+    pub fn to_cpu(&self, ctx: &GpuContext) -> Result<CpuBatch, SimError> {
+        let read = |w| self.read_all(ctx, w);
+        let quads = |v: Vec<f32>| -> Vec<[f32; 4]> {
+            v.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()
+        };
+        let n = self.n_env * self.n_members;
+        let (members, actions, boxes) = if self.n_members > 0 {
+            let m = read(FieldBinding::Members)?;
+            let t = read(FieldBinding::Thrust)?;
+            let b = read(FieldBinding::SwarmBox)?;
+            (
+                bytemuck::cast_slice::<f32, GpuMember>(&m)[..n].to_vec(),
+                t.chunks(2).take(n).map(|c| [c[0], c[1]]).collect(),
+                b.chunks(8).map(|c| [c[0], c[1], c[2], c[3]]).collect(),
+            )
+        } else {
+            (Vec::new(), Vec::new(), vec![[0.0; 4]; self.n_env])
+        };
+        Ok(CpuBatch {
+            params: self.params,
+            scheme: self.scheme,
+            poisson: read(FieldBinding::Poisson)?,
+            u: read(FieldBinding::UIn)?,
+            v: read(FieldBinding::VIn)?,
+            p: read(FieldBinding::Pressure)?,
+            body: quads(read(FieldBinding::Body)?),
+            divstar: read(FieldBinding::DivStar)?,
+            members,
+            actions,
+            boxes,
+        })
     }
 
     /// Reads environment e's part of a buffer.

@@ -6,6 +6,7 @@ pub mod cpu;
 pub mod fluid;
 pub mod grid;
 pub mod health;
+pub mod native;
 pub mod poisson;
 
 pub use fluid::{Fields, FluidBatch, SimError, Stage};

@@ -1,0 +1,874 @@
+//! The native yardstick: the control step of [`cpu::CpuBatch`] written for speed on the CPU,
+//! to measure how far the software adapter is from what these cores can do (issue 6).
+//!
+//! Same algorithm, same f32 arithmetic in the same order, on the same layouts as the twins
+//! (per environment: u [ny][nx+1], v [ny+1][nx], cells [ny][nx], modes [ny][nx]), so its
+//! results equal [`cpu::CpuBatch::step`] bit for bit (tested). What differs is only how the
+//! work is organised:
+//! - w = u + dt nu lap u is computed once per face into scratch (the twins recompute it at
+//!   every stencil point they sample);
+//! - the MacCormack predictor keeps its stencil's extrema, so the correction does not trace
+//!   and sample the forward stencil again;
+//! - interior stencils index directly, ghosts are mapped only on the boundary rows/columns;
+//! - buffers are reused between substeps instead of allocated per pass.
+//!
+//! The members (paint, forces, move) use the twins themselves: they are under 1 % of a step.
+//! One call advances every environment of the batch in turn; run one batch per thread (rayon)
+//! for parallelism, as `benches/substep.rs` does.
+
+use crate::config::Advection;
+use crate::gpu::params::{GpuMember, GpuParams};
+use crate::waveform::Waveform;
+
+use rayon::prelude::*;
+
+use super::EnvHealth;
+use super::cpu::{self, CpuBatch};
+
+/// Reusable per-environment scratch of [`step`].
+#[derive(Debug, Default, Clone)]
+pub struct Scratch {
+    w_u: Vec<f32>,
+    w_v: Vec<f32>,
+    /// MacCormack predictor and its stencil's (min, max), per face.
+    hat_u: Vec<f32>,
+    hat_v: Vec<f32>,
+    ext_u: Vec<[f32; 2]>,
+    ext_v: Vec<[f32; 2]>,
+    /// The input velocity at each face (the predictor's, reused by the correction).
+    vel_u: Vec<[f32; 2]>,
+    vel_v: Vec<[f32; 2]>,
+    u_out: Vec<f32>,
+    v_out: Vec<f32>,
+    modes: Vec<f32>,
+    divstar: Vec<f32>,
+    p: Vec<f32>,
+}
+
+/// The sizes and constants of one environment's grid.
+#[derive(Clone, Copy)]
+struct Dim {
+    nx: usize,
+    ny: usize,
+    p: GpuParams,
+}
+
+impl Dim {
+    fn n_u(&self) -> usize {
+        self.ny * (self.nx + 1)
+    }
+    fn n_v(&self) -> usize {
+        (self.ny + 1) * self.nx
+    }
+    fn n_c(&self) -> usize {
+        self.ny * self.nx
+    }
+
+    /// Ghost-mapped u-like value (i clamped to [0, nx]; rows -1 and ny mirror, odd).
+    #[inline(always)]
+    fn fetch_u(&self, a: &[f32], i: i32, j: i32) -> f32 {
+        let row = self.nx + 1;
+        let ic = i.clamp(0, self.nx as i32) as usize;
+        if j < 0 {
+            -a[ic]
+        } else if j >= self.ny as i32 {
+            -a[(self.ny - 1) * row + ic]
+        } else {
+            a[j as usize * row + ic]
+        }
+    }
+
+    /// Ghost-mapped v-like value (column -1 mirrors, odd; column nx repeats nx-1; j clamped).
+    #[inline(always)]
+    fn fetch_v(&self, a: &[f32], i: i32, j: i32) -> f32 {
+        let jc = j.clamp(0, self.ny as i32) as usize;
+        if i < 0 {
+            -a[jc * self.nx]
+        } else {
+            a[jc * self.nx + (i as usize).min(self.nx - 1)]
+        }
+    }
+
+    /// Bilinear stencil of a u-like field around (x, y), as `G::stencil_u`.
+    #[inline(always)]
+    fn stencil_u(&self, a: &[f32], x: f32, y: f32) -> ([f32; 4], [f32; 2]) {
+        let p = &self.p;
+        let fx = (x * p.inv_dx).clamp(0.0, p.nx as f32);
+        let fy = (y * p.inv_dy).clamp(0.0, p.ny as f32) - 0.5;
+        let i0 = floor_i32(fx).min(self.nx as i32 - 1);
+        let j0 = floor_i32(fy);
+        let vals = if j0 >= 0 && j0 + 1 < self.ny as i32 {
+            let row = self.nx + 1;
+            let k = j0 as usize * row + i0 as usize;
+            [a[k], a[k + 1], a[k + row], a[k + row + 1]]
+        } else {
+            [
+                self.fetch_u(a, i0, j0),
+                self.fetch_u(a, i0 + 1, j0),
+                self.fetch_u(a, i0, j0 + 1),
+                self.fetch_u(a, i0 + 1, j0 + 1),
+            ]
+        };
+        (vals, [fx - i0 as f32, fy - j0 as f32])
+    }
+
+    /// Bilinear stencil of a v-like field around (x, y), as `G::stencil_v`.
+    #[inline(always)]
+    fn stencil_v(&self, a: &[f32], x: f32, y: f32) -> ([f32; 4], [f32; 2]) {
+        let p = &self.p;
+        let fx = (x * p.inv_dx).clamp(0.0, p.nx as f32) - 0.5;
+        let fy = (y * p.inv_dy).clamp(0.0, p.ny as f32);
+        let i0 = floor_i32(fx);
+        let j0 = floor_i32(fy).min(self.ny as i32 - 1);
+        let vals = if i0 >= 0 && i0 + 1 < self.nx as i32 {
+            let k = j0 as usize * self.nx + i0 as usize;
+            [a[k], a[k + 1], a[k + self.nx], a[k + self.nx + 1]]
+        } else {
+            [
+                self.fetch_v(a, i0, j0),
+                self.fetch_v(a, i0 + 1, j0),
+                self.fetch_v(a, i0, j0 + 1),
+                self.fetch_v(a, i0 + 1, j0 + 1),
+            ]
+        };
+        (vals, [fx - i0 as f32, fy - j0 as f32])
+    }
+
+    /// Input velocity at u face (i, j): its u and the mean of the four v faces around it.
+    #[inline(always)]
+    fn velocity_at_u_face(&self, u: &[f32], v: &[f32], i: usize, j: usize) -> [f32; 2] {
+        let s = if i >= 1 && i < self.nx {
+            let k = j * self.nx + i - 1;
+            v[k] + v[k + 1] + v[k + self.nx] + v[k + self.nx + 1]
+        } else {
+            let (a, b) = (i as i32, j as i32);
+            self.fetch_v(v, a - 1, b)
+                + self.fetch_v(v, a, b)
+                + self.fetch_v(v, a - 1, b + 1)
+                + self.fetch_v(v, a, b + 1)
+        };
+        [u[j * (self.nx + 1) + i], 0.25 * s]
+    }
+
+    /// Input velocity at v face (i, j): its v and the mean of the four u faces around it.
+    #[inline(always)]
+    fn velocity_at_v_face(&self, u: &[f32], v: &[f32], i: usize, j: usize) -> [f32; 2] {
+        let s = if j >= 1 && j < self.ny {
+            let row = self.nx + 1;
+            let k = (j - 1) * row + i;
+            u[k] + u[k + 1] + u[k + row] + u[k + row + 1]
+        } else {
+            let (a, b) = (i as i32, j as i32);
+            self.fetch_u(u, a, b - 1)
+                + self.fetch_u(u, a + 1, b - 1)
+                + self.fetch_u(u, a, b)
+                + self.fetch_u(u, a + 1, b)
+        };
+        [0.25 * s, v[j * self.nx + i]]
+    }
+
+    /// Departure point from pos after a step h (Euler, or the midpoint rule in the input
+    /// velocity), as `G::trace`.
+    #[inline(always)]
+    fn trace(&self, u: &[f32], v: &[f32], pos: [f32; 2], v0: [f32; 2], h: f32) -> [f32; 2] {
+        if self.p.rk2 == 0 {
+            return [pos[0] - h * v0[0], pos[1] - h * v0[1]];
+        }
+        let mid = [pos[0] - 0.5 * h * v0[0], pos[1] - 0.5 * h * v0[1]];
+        let (su, tu) = self.stencil_u(u, mid[0], mid[1]);
+        let (sv, tv) = self.stencil_v(v, mid[0], mid[1]);
+        let v1 = [bilerp(su, tu), bilerp(sv, tv)];
+        [pos[0] - h * v1[0], pos[1] - h * v1[1]]
+    }
+
+    fn u_pos(&self, i: usize, j: usize) -> [f32; 2] {
+        [i as f32 * self.p.dx, (j as f32 + 0.5) * self.p.dy]
+    }
+
+    fn v_pos(&self, i: usize, j: usize) -> [f32; 2] {
+        [(i as f32 + 0.5) * self.p.dx, j as f32 * self.p.dy]
+    }
+}
+
+/// `x.floor() as i32` without a libm call (the baseline x86-64 target has no rounding
+/// instruction): the same value for every finite x in i32's range, and 0 for NaN.
+#[inline(always)]
+fn floor_i32(x: f32) -> i32 {
+    let t = x as i32;
+    if (t as f32) > x { t - 1 } else { t }
+}
+
+#[inline(always)]
+fn mix(a: f32, b: f32, t: f32) -> f32 {
+    a * (1.0 - t) + b * t
+}
+
+#[inline(always)]
+fn bilerp(vals: [f32; 4], t: [f32; 2]) -> f32 {
+    mix(
+        mix(vals[0], vals[1], t[0]),
+        mix(vals[2], vals[3], t[0]),
+        t[1],
+    )
+}
+
+#[inline(always)]
+fn extrema(vals: [f32; 4]) -> [f32; 2] {
+    [
+        vals.iter().copied().fold(f32::INFINITY, f32::min),
+        vals.iter().copied().fold(f32::NEG_INFINITY, f32::max),
+    ]
+}
+
+/// The MacCormack value clamped to the predictor's stencil extrema; a non-finite value passes
+/// unclamped, as in `advect.wgsl`, so a blow-up reaches the health check (the twin's
+/// `f32::clamp` would panic on it; for finite values the two are the same).
+#[inline(always)]
+fn limited(raw: f32, [lo, hi]: [f32; 2]) -> f32 {
+    if !raw.is_finite() {
+        return raw;
+    }
+    raw.clamp(lo, hi)
+}
+
+#[inline(always)]
+fn brinkman(w: f32, chi_a: f32, w_a: f32, chi_b: f32, w_b: f32) -> f32 {
+    if chi_a == 0.0 && chi_b == 0.0 {
+        return w;
+    }
+    let chi = 0.5 * (chi_a + chi_b);
+    (1.0 - chi) * w + 0.5 * (chi_a * w_a + chi_b * w_b)
+}
+
+/// w = u + dt nu lap u on every face (inlet faces and wall v faces keep u, 0).
+fn diffuse(d: &Dim, u: &[f32], v: &[f32], w_u: &mut [f32], w_v: &mut [f32]) {
+    let (nx, ny, p) = (d.nx, d.ny, &d.p);
+    let (ax, ay) = (p.dx * p.dx, p.dy * p.dy);
+    let coef = p.dt * p.nu;
+    let row = nx + 1;
+    for j in 0..ny {
+        let interior_row = j >= 1 && j + 1 < ny;
+        w_u[j * row] = u[j * row];
+        for i in 1..=nx {
+            let k = j * row + i;
+            let c = u[k];
+            let (lx, ly) = if interior_row && i < nx {
+                (
+                    u[k + 1] + u[k - 1] - 2.0 * c,
+                    u[k + row] + u[k - row] - 2.0 * c,
+                )
+            } else {
+                let (a, b) = (i as i32, j as i32);
+                let c = d.fetch_u(u, a, b);
+                (
+                    d.fetch_u(u, a + 1, b) + d.fetch_u(u, a - 1, b) - 2.0 * c,
+                    d.fetch_u(u, a, b + 1) + d.fetch_u(u, a, b - 1) - 2.0 * c,
+                )
+            };
+            w_u[k] = c + coef * (lx / ax + ly / ay);
+        }
+    }
+    for j in 0..=ny {
+        for i in 0..nx {
+            let k = j * nx + i;
+            if j == 0 || j == ny {
+                w_v[k] = 0.0;
+                continue;
+            }
+            let c = v[k];
+            let (lx, ly) = if i >= 1 && i + 1 < nx {
+                (
+                    v[k + 1] + v[k - 1] - 2.0 * c,
+                    v[k + nx] + v[k - nx] - 2.0 * c,
+                )
+            } else {
+                let (a, b) = (i as i32, j as i32);
+                (
+                    d.fetch_v(v, a + 1, b) + d.fetch_v(v, a - 1, b) - 2.0 * c,
+                    d.fetch_v(v, a, b + 1) + d.fetch_v(v, a, b - 1) - 2.0 * c,
+                )
+            };
+            w_v[k] = c + coef * (lx / ax + ly / ay);
+        }
+    }
+}
+
+/// The momentum predictor u* of one environment into s.u_out / s.v_out.
+fn advect(
+    d: &Dim,
+    scheme: Advection,
+    u: &[f32],
+    v: &[f32],
+    body: &[[f32; 4]],
+    centre: f32,
+    s: &mut Scratch,
+) {
+    let (nx, ny, p) = (d.nx, d.ny, d.p);
+    let row = nx + 1;
+    diffuse(d, u, v, &mut s.w_u, &mut s.w_v);
+    let mac = scheme == Advection::Maccormack;
+    if mac {
+        for j in 0..ny {
+            s.hat_u[j * row] = u[j * row];
+            for i in 1..=nx {
+                let vel = d.velocity_at_u_face(u, v, i, j);
+                s.vel_u[j * row + i] = vel;
+                let dep = d.trace(u, v, d.u_pos(i, j), vel, p.dt);
+                let (st, t) = d.stencil_u(&s.w_u, dep[0], dep[1]);
+                s.hat_u[j * row + i] = bilerp(st, t);
+                s.ext_u[j * row + i] = extrema(st);
+            }
+        }
+        for j in 0..=ny {
+            for i in 0..nx {
+                let k = j * nx + i;
+                if j == 0 || j == ny {
+                    s.hat_v[k] = 0.0;
+                    continue;
+                }
+                let vel = d.velocity_at_v_face(u, v, i, j);
+                s.vel_v[k] = vel;
+                let dep = d.trace(u, v, d.v_pos(i, j), vel, p.dt);
+                let (st, t) = d.stencil_v(&s.w_v, dep[0], dep[1]);
+                s.hat_v[k] = bilerp(st, t);
+                s.ext_v[k] = extrema(st);
+            }
+        }
+    }
+    for j in 0..ny {
+        let y = (j as f32 + 0.5) * p.dy;
+        s.u_out[j * row] = 4.0 * centre * y * (p.height - y) / (p.height * p.height);
+        for i in 1..=nx {
+            let k = j * row + i;
+            let w = if mac {
+                let vel = s.vel_u[k];
+                let dep = d.trace(u, v, d.u_pos(i, j), vel, -p.dt);
+                let (st, t) = d.stencil_u(&s.hat_u, dep[0], dep[1]);
+                limited(s.hat_u[k] + 0.5 * (s.w_u[k] - bilerp(st, t)), s.ext_u[k])
+            } else {
+                let vel = d.velocity_at_u_face(u, v, i, j);
+                let dep = d.trace(u, v, d.u_pos(i, j), vel, p.dt);
+                let (st, t) = d.stencil_u(&s.w_u, dep[0], dep[1]);
+                bilerp(st, t)
+            };
+            let a = body[j * nx + i.max(1) - 1];
+            let b = body[j * nx + i.min(nx - 1)];
+            s.u_out[k] = brinkman(w, a[0], a[1], b[0], b[1]);
+        }
+    }
+    for j in 0..=ny {
+        for i in 0..nx {
+            let k = j * nx + i;
+            if j == 0 || j == ny {
+                s.v_out[k] = 0.0;
+                continue;
+            }
+            let w = if mac {
+                let vel = s.vel_v[k];
+                let dep = d.trace(u, v, d.v_pos(i, j), vel, -p.dt);
+                let (st, t) = d.stencil_v(&s.hat_v, dep[0], dep[1]);
+                limited(s.hat_v[k] + 0.5 * (s.w_v[k] - bilerp(st, t)), s.ext_v[k])
+            } else {
+                let vel = d.velocity_at_v_face(u, v, i, j);
+                let dep = d.trace(u, v, d.v_pos(i, j), vel, p.dt);
+                let (st, t) = d.stencil_v(&s.w_v, dep[0], dep[1]);
+                bilerp(st, t)
+            };
+            let a = body[(j - 1) * nx + i];
+            let b = body[j * nx + i];
+            s.v_out[k] = brinkman(w, a[0], a[2], b[0], b[2]);
+        }
+    }
+}
+
+/// Divergence, its column maxima and the y-cosine modes of rho/dt div u* (as the twin).
+fn pressure_rhs(d: &Dim, poisson: &[f32], s: &mut Scratch) {
+    let (nx, ny, p) = (d.nx, d.ny, &d.p);
+    let (u, v) = (&s.u_out, &s.v_out);
+    let row = nx + 1;
+    let half = ny / 2;
+    let scale = p.rho / p.dt;
+    let mut column = [0.0f32; 64];
+    let column = &mut column[..ny];
+    for i in 0..nx {
+        let mut dmax = 0.0f32;
+        for (j, c) in column.iter_mut().enumerate() {
+            *c = (u[j * row + i + 1] - u[j * row + i]) / p.dx
+                + (v[(j + 1) * nx + i] - v[j * nx + i]) / p.dy;
+            dmax = dmax.max(c.abs());
+        }
+        s.divstar[i] = dmax;
+        for j in 0..half {
+            let (lo, hi) = (column[j], column[ny - 1 - j]);
+            column[j] = lo + hi;
+            column[ny - 1 - j] = lo - hi;
+        }
+        for k in 0..ny {
+            let mut acc = 0.0f32;
+            if k % 2 == 0 {
+                for j in 0..half {
+                    acc += poisson[j * ny + k] * column[j];
+                }
+                if ny % 2 == 1 {
+                    acc += poisson[half * ny + k] * column[half];
+                }
+            } else {
+                for j in 0..half {
+                    acc += poisson[j * ny + k] * column[ny - 1 - j];
+                }
+            }
+            s.modes[k * nx + i] = acc * scale;
+        }
+    }
+}
+
+/// The Thomas sweeps of every mode (as the twin), four modes at a time so that their
+/// independent recurrences overlap instead of waiting on each other's latency.
+fn pressure_solve(d: &Dim, poisson: &[f32], modes: &mut [f32]) {
+    let (nx, ny) = (d.nx, d.ny);
+    let dx2 = d.p.dx * d.p.dx;
+    let (c_at, m_at) = (ny * ny, ny * ny + ny * nx);
+    let mut k0 = 0;
+    while k0 < ny {
+        let lanes = (ny - k0).min(4);
+        let mut prev = [0.0f32; 4];
+        for i in 0..nx {
+            for (l, prev) in prev[..lanes].iter_mut().enumerate() {
+                let k = k0 + l;
+                let y = (modes[k * nx + i] * dx2 - *prev) * poisson[m_at + k * nx + i];
+                modes[k * nx + i] = y;
+                *prev = y;
+            }
+        }
+        let mut next = [0.0f32; 4];
+        for i in (0..nx).rev() {
+            for (l, next) in next[..lanes].iter_mut().enumerate() {
+                let k = k0 + l;
+                let y = modes[k * nx + i] - poisson[c_at + k * nx + i] * *next;
+                modes[k * nx + i] = y;
+                *next = y;
+            }
+        }
+        k0 += lanes;
+    }
+}
+
+/// Pressure from its modes, then the velocity correction of s.u_out / s.v_out (as the twin).
+fn project(d: &Dim, poisson: &[f32], s: &mut Scratch) {
+    let (nx, ny, p) = (d.nx, d.ny, &d.p);
+    let scale = p.dt / p.rho;
+    let mut mode = [0.0f32; 64];
+    for i in 0..nx {
+        for (k, m) in mode[..ny].iter_mut().enumerate() {
+            *m = s.modes[k * nx + i];
+        }
+        for j in 0..ny.div_ceil(2) {
+            let q = &poisson[j * ny..(j + 1) * ny];
+            let mut even = 0.0f32;
+            for k in (0..ny).step_by(2) {
+                even += q[k] * mode[k];
+            }
+            let mut odd = 0.0f32;
+            for k in (1..ny).step_by(2) {
+                odd += q[k] * mode[k];
+            }
+            let mirror = ny - 1 - j;
+            if mirror == j {
+                s.p[j * nx + i] = even;
+            } else {
+                s.p[j * nx + i] = even + odd;
+                s.p[mirror * nx + i] = even - odd;
+            }
+        }
+    }
+    let pres = &s.p;
+    let row = nx + 1;
+    for j in 0..ny {
+        for i in 1..=nx {
+            let left = pres[j * nx + i - 1];
+            let right = if i == nx { -left } else { pres[j * nx + i] };
+            s.u_out[j * row + i] -= scale * (right - left) / p.dx;
+        }
+    }
+    for j in 1..ny {
+        for i in 0..nx {
+            s.v_out[j * nx + i] -= scale * (pres[j * nx + i] - pres[(j - 1) * nx + i]) / p.dy;
+        }
+    }
+}
+
+/// The body field from the members, as [`cpu::paint_bodies`], visiting only the cells near
+/// each environment's swarm box (the twin tests every cell against the box; the same test
+/// decides here, so the result is the same).
+fn paint_bodies(d: &Dim, members: &[GpuMember], boxes: &[[f32; 4]], body: &mut Vec<[f32; 4]>) {
+    let (nx, ny, p) = (d.nx, d.ny, &d.p);
+    let n = p.n_members as usize;
+    let reach = p.radius + p.dx;
+    body.clear();
+    body.resize(p.n_env as usize * nx * ny, [0.0; 4]);
+    for (e, bx) in boxes.iter().enumerate() {
+        // Cell centres (i + 1/2) dx inside [bx0 - reach, bx1 + reach] lie in this index range
+        // (one cell of margin either side for rounding).
+        let range = |lo: f32, hi: f32, h: f32, n: usize| {
+            let a = floor_i32(lo / h - 0.5) - 1;
+            let b = floor_i32(hi / h - 0.5) + 2;
+            (a.clamp(0, n as i32) as usize, b.clamp(0, n as i32) as usize)
+        };
+        let (i_lo, i_hi) = range(bx[0] - reach, bx[1] + reach, p.dx, nx);
+        let (j_lo, j_hi) = range(bx[2] - reach, bx[3] + reach, p.dy, ny);
+        let swarm = &members[e * n..(e + 1) * n];
+        for j in j_lo..j_hi {
+            for i in i_lo..i_hi {
+                let c = [(i as f32 + 0.5) * p.dx, (j as f32 + 0.5) * p.dy];
+                if !(c[0] >= bx[0] - reach
+                    && c[0] <= bx[1] + reach
+                    && c[1] >= bx[2] - reach
+                    && c[1] <= bx[3] + reach)
+                {
+                    continue;
+                }
+                let mut cell = [0.0f32; 4];
+                for mem in swarm {
+                    let dist = (c[0] - mem.pos[0]).hypot(c[1] - mem.pos[1]);
+                    let chi = (0.5 + (p.radius - dist) * p.inv_dx).clamp(0.0, 1.0);
+                    if chi > cell[0] {
+                        cell = [chi, mem.vel[0], mem.vel[1], 0.0];
+                    }
+                }
+                body[(e * ny + j) * nx + i] = cell;
+            }
+        }
+    }
+}
+
+/// One control step of every environment of `batch` (inlet [E][S]), equal to
+/// [`CpuBatch::step`]: paint, advect, pressure, project, move per substep, then the health.
+pub fn step(batch: &mut CpuBatch, inlet: &[f32], scratch: &mut Scratch) -> Vec<EnvHealth> {
+    let p = batch.params;
+    let (nx, ny, ne) = (p.nx as usize, p.ny as usize, p.n_env as usize);
+    let d = Dim { nx, ny, p };
+    let s = scratch;
+    let sized = |b: &mut Vec<f32>, n: usize| b.resize(n, 0.0);
+    sized(&mut s.w_u, d.n_u());
+    sized(&mut s.hat_u, d.n_u());
+    sized(&mut s.u_out, d.n_u());
+    sized(&mut s.w_v, d.n_v());
+    sized(&mut s.hat_v, d.n_v());
+    sized(&mut s.v_out, d.n_v());
+    sized(&mut s.modes, d.n_c());
+    sized(&mut s.p, d.n_c());
+    sized(&mut s.divstar, nx);
+    s.ext_u.resize(d.n_u(), [0.0; 2]);
+    s.ext_v.resize(d.n_v(), [0.0; 2]);
+    s.vel_u.resize(d.n_u(), [0.0; 2]);
+    s.vel_v.resize(d.n_v(), [0.0; 2]);
+    let (nu, nv, nc) = (d.n_u(), d.n_v(), d.n_c());
+    for sub in 0..p.substeps as usize {
+        if p.n_members > 0 {
+            paint_bodies(&d, &batch.members, &batch.boxes, &mut batch.body);
+        }
+        for e in 0..ne {
+            let centre = inlet[e * p.substeps as usize + sub];
+            let u = &batch.u[e * nu..(e + 1) * nu];
+            let v = &batch.v[e * nv..(e + 1) * nv];
+            let body = &batch.body[e * nc..(e + 1) * nc];
+            advect(&d, batch.scheme, u, v, body, centre, s);
+            pressure_rhs(&d, &batch.poisson, s);
+            pressure_solve(&d, &batch.poisson, &mut s.modes);
+            project(&d, &batch.poisson, s);
+            batch.u[e * nu..(e + 1) * nu].copy_from_slice(&s.u_out);
+            batch.v[e * nv..(e + 1) * nv].copy_from_slice(&s.v_out);
+            batch.p[e * nc..(e + 1) * nc].copy_from_slice(&s.p);
+            batch.divstar[e * nx..(e + 1) * nx].copy_from_slice(&s.divstar);
+        }
+        if p.n_members > 0 {
+            let (m, _, boxes) = cpu::move_members(
+                &p,
+                &batch.members,
+                &batch.actions,
+                &batch.p,
+                &batch.u,
+                &batch.v,
+            );
+            batch.members = m;
+            batch.boxes = boxes;
+        }
+    }
+    cpu::diagnostics(&p, &batch.u, &batch.v, &batch.p, &batch.divstar)
+}
+
+/// A batch stepped natively: one single-environment [`CpuBatch`] per environment, advanced in
+/// parallel on the rayon pool, with the clock of `FluidBatch` (time since reset and waveform
+/// phase per environment; the inlet of each substep comes from the waveform).
+pub struct NativeBatch {
+    envs: Vec<(CpuBatch, Scratch)>,
+    waveform: Waveform,
+    control_dt: f64,
+    time_s: Vec<f64>,
+    phase_s: Vec<f64>,
+}
+
+impl NativeBatch {
+    /// Splits `batch` into its environments, each at time 0 and phase 0.
+    pub fn new(batch: &CpuBatch, waveform: Waveform, control_dt: f64) -> Self {
+        let p = batch.params;
+        let (ne, n) = (p.n_env as usize, p.n_members as usize);
+        let (nx, ny) = (p.nx as usize, p.ny as usize);
+        let (nu, nv, nc) = (ny * (nx + 1), (ny + 1) * nx, ny * nx);
+        let envs = (0..ne)
+            .map(|e| {
+                let one = CpuBatch {
+                    params: GpuParams { n_env: 1, ..p },
+                    scheme: batch.scheme,
+                    poisson: batch.poisson.clone(),
+                    u: batch.u[e * nu..(e + 1) * nu].to_vec(),
+                    v: batch.v[e * nv..(e + 1) * nv].to_vec(),
+                    p: batch.p[e * nc..(e + 1) * nc].to_vec(),
+                    body: batch.body[e * nc..(e + 1) * nc].to_vec(),
+                    divstar: batch.divstar[e * nx..(e + 1) * nx].to_vec(),
+                    members: batch.members[e * n..(e + 1) * n].to_vec(),
+                    actions: batch.actions[e * n..(e + 1) * n].to_vec(),
+                    boxes: batch.boxes[e..e + 1].to_vec(),
+                };
+                (one, Scratch::default())
+            })
+            .collect();
+        Self {
+            envs,
+            waveform,
+            control_dt,
+            time_s: vec![0.0; ne],
+            phase_s: vec![0.0; ne],
+        }
+    }
+
+    pub fn n_env(&self) -> usize {
+        self.envs.len()
+    }
+
+    /// Environment e's state.
+    pub fn env(&self, e: usize) -> &CpuBatch {
+        &self.envs[e].0
+    }
+
+    /// Advances every environment by one control step (in parallel) and returns their health.
+    pub fn step(&mut self) -> Vec<EnvHealth> {
+        let (waveform, control_dt) = (&self.waveform, self.control_dt);
+        let health = self
+            .envs
+            .par_iter_mut()
+            .zip(&self.time_s)
+            .zip(&self.phase_s)
+            .map(|(((env, scratch), t), phase)| {
+                let substeps = env.params.substeps as usize;
+                let dt_sub = control_dt / substeps as f64;
+                let inlet: Vec<f32> = (0..substeps)
+                    .map(|s| waveform.at(t + phase + (s as f64 + 1.0) * dt_sub) as f32)
+                    .collect();
+                step(env, &inlet, scratch)[0]
+            })
+            .collect();
+        for t in &mut self.time_s {
+            *t += control_dt;
+        }
+        health
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+    use crate::sim::Grid;
+    use crate::sim::fluid::batch_params;
+    use crate::sim::poisson::PoissonTables;
+
+    /// SplitMix64 in [-1, 1).
+    struct Noise(u64);
+    impl Noise {
+        fn next(&mut self) -> f32 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^= z >> 31;
+            (z >> 40) as f32 / (1u64 << 23) as f32 - 1.0
+        }
+    }
+
+    /// A batch of `envs` environments on an awkward 41 x 13 grid with random velocities of
+    /// about 0.2 m/s (departures up to about a cell away), a random body field and, with
+    /// `members`, three moving members (the body field is then painted from them).
+    fn random_batch(scheme: &str, trace: &str, envs: usize, members: bool) -> (CpuBatch, Vec<f32>) {
+        let (nx, ny) = (41u32, 13u32);
+        let mut sets = vec![
+            format!("domain.nx={nx}"),
+            format!("domain.ny={ny}"),
+            format!("domain.length_m={}", nx as f64 * 1e-4),
+            format!("domain.height_m={}", ny as f64 * 1e-4),
+            format!("domain.success_x_m={}", 0.8e-3),
+            format!("domain.failure_x_m={}", 3.2e-3),
+            format!("solver.advection={scheme}"),
+            format!("solver.backtrace={trace}"),
+            "time.substeps=4".to_string(),
+            "time.control_dt_s=0.001".to_string(),
+        ];
+        if members {
+            sets.push("swarm.count=3".to_string());
+            sets.push("swarm.layout=explicit".to_string());
+            sets.push(
+                "swarm.positions_m=[[1.5e-3, 0.5e-3], [2.1e-3, 0.8e-3], [2.9e-3, 0.6e-3]]".into(),
+            );
+        } else {
+            sets.push("swarm.count=0".to_string());
+        }
+        let resolved = Config::load(None, &sets).unwrap();
+        let params = batch_params(&resolved, envs);
+        let grid = Grid::from_config(&resolved.config);
+        let mut n = Noise(7);
+        let u = (0..envs * grid.n_u())
+            .map(|_| 0.15 + 0.2 * n.next())
+            .collect();
+        let v = (0..envs * grid.n_v()).map(|_| 0.1 * n.next()).collect();
+        let body = (0..envs * grid.n_cells())
+            .map(|_| {
+                let r = n.next();
+                let chi = if r > 0.5 {
+                    1.0
+                } else if r > 0.3 {
+                    0.5 * (r + 1.0)
+                } else {
+                    0.0
+                };
+                [chi, 0.05 * n.next(), 0.05 * n.next(), 0.0]
+            })
+            .collect();
+        let n_m = params.n_members as usize;
+        let start = resolved.config.swarm.initial_positions(grid.height_m);
+        let members: Vec<GpuMember> = (0..envs * n_m)
+            .map(|k| GpuMember {
+                pos: [start[k % n_m][0] as f32, start[k % n_m][1] as f32],
+                vel: [0.01 * n.next(), 0.01 * n.next()],
+                pinned: 0.0,
+                pad: [0.0; 3],
+            })
+            .collect();
+        let boxes = (0..envs)
+            .map(|e| {
+                let m = &members[e * n_m..(e + 1) * n_m];
+                m.iter()
+                    .fold([f32::MAX, f32::MIN, f32::MAX, f32::MIN], |b, m| {
+                        [
+                            b[0].min(m.pos[0]),
+                            b[1].max(m.pos[0]),
+                            b[2].min(m.pos[1]),
+                            b[3].max(m.pos[1]),
+                        ]
+                    })
+            })
+            .collect();
+        let actions = (0..envs * n_m)
+            .map(|_| [2.0 * n.next(), 2.0 * n.next()])
+            .collect();
+        let inlet = (0..envs * params.substeps as usize)
+            .map(|_| 0.3 * n.next())
+            .collect();
+        let batch = CpuBatch {
+            params,
+            scheme: resolved.config.solver.advection,
+            poisson: PoissonTables::new(&grid).to_gpu(),
+            u,
+            v,
+            p: vec![0.0; envs * grid.n_cells()],
+            body,
+            divstar: vec![0.0; envs * grid.nx],
+            members,
+            actions,
+            boxes,
+        };
+        (batch, inlet)
+    }
+
+    fn bits(x: &[f32]) -> Vec<u32> {
+        x.iter().map(|v| v.to_bits()).collect()
+    }
+
+    /// Two control steps of the native step and of the twins give identical bits: velocity,
+    /// pressure, members and health.
+    fn equals_twins(scheme: &str, trace: &str, members: bool) {
+        let (mut twin, inlet) = random_batch(scheme, trace, 2, members);
+        let mut fast = twin.clone();
+        let mut scratch = Scratch::default();
+        for _ in 0..2 {
+            let h_twin = twin.step(&inlet);
+            let h_fast = step(&mut fast, &inlet, &mut scratch);
+            assert_eq!(format!("{h_twin:?}"), format!("{h_fast:?}"), "health");
+        }
+        assert_eq!(bits(&twin.u), bits(&fast.u), "u");
+        assert_eq!(bits(&twin.v), bits(&fast.v), "v");
+        assert_eq!(bits(&twin.p), bits(&fast.p), "p");
+        assert_eq!(bits(&twin.divstar), bits(&fast.divstar), "divstar");
+        let flat = |b: &CpuBatch| -> Vec<f32> {
+            b.members
+                .iter()
+                .flat_map(|m| [m.pos[0], m.pos[1], m.vel[0], m.vel[1]])
+                .collect()
+        };
+        assert_eq!(bits(&flat(&twin)), bits(&flat(&fast)), "members");
+        // The state moved: the comparison is not of two untouched copies.
+        let (start, _) = random_batch(scheme, trace, 2, members);
+        assert_ne!(bits(&start.u), bits(&fast.u));
+        if members {
+            assert_ne!(bits(&flat(&start)), bits(&flat(&fast)));
+        }
+    }
+
+    /// The parallel batch, split into single environments, steps as the whole batch does.
+    #[test]
+    fn native_batch_equals_the_twins_per_environment() {
+        let (mut twin, _) = random_batch("maccormack", "euler", 3, true);
+        let waveform = Waveform::new(vec![(0.0, 0.1), (0.001, 0.3), (1.0, 0.1)], 1.0).unwrap();
+        let mut batch = NativeBatch::new(&twin, waveform.clone(), 0.001);
+        let dt_sub = 0.001 / 4.0;
+        for step_index in 0..2 {
+            let t0 = step_index as f64 * 0.001;
+            let inlet: Vec<f32> = (0..3)
+                .flat_map(|_| (0..4).map(|s| waveform.at(t0 + (s as f64 + 1.0) * dt_sub) as f32))
+                .collect();
+            let h_twin = twin.step(&inlet);
+            let h_fast = batch.step();
+            assert_eq!(format!("{h_twin:?}"), format!("{h_fast:?}"));
+        }
+        let (nx, ny, n) = (41, 13, 3);
+        let nu = ny * (nx + 1);
+        for e in 0..3 {
+            assert_eq!(
+                bits(&twin.u[e * nu..(e + 1) * nu]),
+                bits(&batch.env(e).u),
+                "u of {e}"
+            );
+            let m = &twin.members[e * n..(e + 1) * n];
+            assert_eq!(format!("{m:?}"), format!("{:?}", batch.env(e).members));
+        }
+    }
+
+    #[test]
+    fn maccormack_euler_with_a_swarm_equals_the_twins() {
+        equals_twins("maccormack", "euler", true);
+    }
+
+    #[test]
+    fn maccormack_rk2_with_a_body_field_equals_the_twins() {
+        equals_twins("maccormack", "rk2", false);
+    }
+
+    #[test]
+    fn semi_lagrangian_euler_with_a_swarm_equals_the_twins() {
+        equals_twins("semi_lagrangian", "euler", true);
+    }
+
+    #[test]
+    fn semi_lagrangian_rk2_with_a_body_field_equals_the_twins() {
+        equals_twins("semi_lagrangian", "rk2", false);
+    }
+}

@@ -222,6 +222,22 @@ pub enum Backtrace {
 pub struct Solver {
     pub advection: Advection,
     pub backtrace: Backtrace,
+    /// Where the control step runs (default: the adapter).
+    #[serde(default)]
+    pub backend: Backend,
+}
+
+/// Where the fluid and swarm control step runs.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Backend {
+    /// The WGSL kernels on the wgpu adapter (a GPU, or lavapipe on the CPU).
+    #[default]
+    Adapter,
+    /// `sim::native`: the same control step in plain Rust on the CPU cores (rayon, one
+    /// environment per task); equal to the CPU twins bit for bit. On a machine without a GPU
+    /// it is about 2.5-3x faster than lavapipe (README, Performance).
+    Native,
 }
 
 /// A validated configuration with its waveform resolved.

@@ -56,14 +56,25 @@ fn newest(dir: &Path) -> PathBuf {
 
 #[test]
 fn resume_after_a_lost_checkpoint_matches_an_uninterrupted_run() {
+    resume_matches_an_uninterrupted_run(&[]);
+}
+
+/// The same with the native backend, which takes a resumed run's state back from the device
+/// buffers the checkpoint restored.
+#[test]
+fn native_backend_resume_matches_an_uninterrupted_run() {
+    resume_matches_an_uninterrupted_run(&["--set", "solver.backend=native"]);
+}
+
+fn resume_matches_an_uninterrupted_run(extra: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));
     let (a_s, b_s) = (a.to_str().unwrap(), b.to_str().unwrap());
-    let o = bin(&train_args(a_s, "48", &[]));
+    let o = bin(&train_args(a_s, "48", extra));
     assert!(o.status.success(), "{}", text(&o));
     // b stops after 5 updates (checkpoints at 2, 4 and 5); losing the last checkpoint leaves
     // update 5 in the logs with no state behind it.
-    let o = bin(&train_args(b_s, "40", &[]));
+    let o = bin(&train_args(b_s, "40", extra));
     assert!(o.status.success(), "{}", text(&o));
     assert_eq!(updates_without_timing(&b).len(), 1 + 5);
     std::fs::remove_file(b.join("checkpoints").join(checkpoint::file_name(5))).unwrap();

@@ -18,9 +18,12 @@ mod checkpoint;
 use thiserror::Error;
 use wgpu::util::DeviceExt;
 
+use std::cell::RefCell;
+
 use super::cpu::CpuBatch;
+use super::native::NativeBatch;
 use super::{EnvHealth, Grid, poisson::PoissonTables};
-use crate::config::{Advection, Backtrace, Resolved};
+use crate::config::{Advection, Backend, Backtrace, Resolved};
 use crate::gpu::kernels::{
     Advect, Diagnostics, Dims, FieldBinding, FieldLayout, Members, PressureRhs, PressureSolve,
     Project, Recorder, map_and_read, read_buffer,
@@ -173,6 +176,20 @@ pub struct FluidBatch {
     last_members: Vec<GpuMember>,
     last_diag: Vec<GpuMemberDiag>,
     steps: u64,
+    /// With `solver.backend = "native"`: the native step's state (see [`NativeMode`]).
+    native: Option<NativeMode>,
+}
+
+/// The native backend inside a batch: the control step runs on the CPU (`sim::native`), and the
+/// device buffers stay the batch's state of record. Every write to them marks the environment
+/// stale, and the next step first takes its state back from the buffers; every step writes its
+/// results back, so reads (fields, checkpoints, frames) see the same state as on the adapter.
+struct NativeMode {
+    batch: NativeBatch,
+    /// Environments written on the device since the native state was taken from it.
+    stale: RefCell<Vec<bool>>,
+    /// Raw actions [E][N], kept on the CPU as well (written every step).
+    actions: RefCell<Vec<[f32; 2]>>,
 }
 
 /// Bytes of the largest single buffer of one environment (the body buffer, 16 B per cell).
@@ -319,11 +336,155 @@ impl FluidBatch {
             last_diag: vec![GpuMemberDiag::default(); n_env * n_members],
             initial_members,
             steps: 0,
+            native: None,
         };
         for e in 0..n_env {
             batch.reset_env(e)?;
         }
+        if config.solver.backend == Backend::Native {
+            log::info!(
+                "control step: native backend (plain Rust on {} threads, solver.backend = \"native\"); the adapter only keeps the buffers",
+                rayon::current_num_threads()
+            );
+            let start = batch.to_cpu(ctx)?;
+            batch.native = Some(NativeMode {
+                batch: NativeBatch::new(&start, batch.waveform.clone(), batch.control_dt),
+                stale: RefCell::new(vec![false; n_env]),
+                actions: RefCell::new(start.actions.clone()),
+            });
+        }
         Ok(batch)
+    }
+
+    /// Whether the control step runs natively on the CPU (`solver.backend = "native"`).
+    pub fn is_native(&self) -> bool {
+        self.native.is_some()
+    }
+
+    /// Marks environment e (all, with `None`) as written on the device; writes of the raw
+    /// actions also go to the native copy.
+    fn device_written(&self, which: FieldBinding, e: Option<usize>, bytes: &[u8]) {
+        let Some(native) = &self.native else {
+            return;
+        };
+        if which == FieldBinding::Thrust {
+            let values: Vec<[f32; 2]> = bytemuck::pod_collect_to_vec(bytes);
+            let mut actions = native.actions.borrow_mut();
+            let n = self.n_members;
+            match e {
+                Some(e) => actions[e * n..(e + 1) * n].copy_from_slice(&values),
+                None => {
+                    let len = actions.len();
+                    actions.copy_from_slice(&values[..len]);
+                }
+            }
+            return;
+        }
+        let mut stale = native.stale.borrow_mut();
+        match e {
+            Some(e) => stale[e] = true,
+            None => stale.fill(true),
+        }
+    }
+
+    /// Environment e's state from the device buffers, as a single-environment [`CpuBatch`].
+    fn env_to_cpu(
+        &self,
+        ctx: &GpuContext,
+        e: usize,
+        poisson: &[f32],
+    ) -> Result<CpuBatch, SimError> {
+        let read = |w| self.read_env(ctx, w, e);
+        let quads = |v: Vec<f32>| -> Vec<[f32; 4]> {
+            v.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()
+        };
+        let (members, actions, boxes) = if self.n_members > 0 {
+            let m = read(FieldBinding::Members)?;
+            let t = read(FieldBinding::Thrust)?;
+            let b = read(FieldBinding::SwarmBox)?;
+            (
+                bytemuck::pod_collect_to_vec(&m),
+                t.chunks(2).map(|c| [c[0], c[1]]).collect(),
+                vec![[b[0], b[1], b[2], b[3]]],
+            )
+        } else {
+            (Vec::new(), Vec::new(), vec![[0.0; 4]])
+        };
+        Ok(CpuBatch {
+            params: GpuParams {
+                n_env: 1,
+                ..self.params
+            },
+            scheme: self.scheme,
+            poisson: poisson.to_vec(),
+            u: read(FieldBinding::UIn)?,
+            v: read(FieldBinding::VIn)?,
+            p: read(FieldBinding::Pressure)?,
+            body: quads(read(FieldBinding::Body)?),
+            divstar: read(FieldBinding::DivStar)?,
+            members,
+            actions,
+            boxes,
+        })
+    }
+
+    /// One control step on the CPU: take back stale environments, step, write the results
+    /// to the device buffers (velocity, pressure, body, divergence, members, their forces,
+    /// swarm boxes) and advance the clocks.
+    fn step_native(&mut self, ctx: &GpuContext) -> Result<Vec<EnvHealth>, SimError> {
+        let inlet = self.inlet_values();
+        let mut native = self.native.take().expect("native mode");
+        let stale: Vec<usize> = (0..self.n_env)
+            .filter(|&e| native.stale.borrow()[e])
+            .collect();
+        for e in stale {
+            let poisson = native.batch.env(e).poisson.clone();
+            native
+                .batch
+                .replace_env(e, self.env_to_cpu(ctx, e, &poisson)?);
+        }
+        native.stale.borrow_mut().fill(false);
+        let n = self.n_members;
+        if n > 0 {
+            let actions = native.actions.borrow().clone();
+            for e in 0..self.n_env {
+                native.batch.set_actions(e, &actions[e * n..(e + 1) * n]);
+            }
+        }
+        let health = native.batch.step_with_inlet(&inlet);
+        let mut members = Vec::with_capacity(self.n_env * n);
+        let mut diags = Vec::with_capacity(self.n_env * n);
+        for e in 0..self.n_env {
+            let env = native.batch.env(e);
+            let put = |which: FieldBinding, bytes: &[u8]| {
+                let at = (e * self.words_per_env(which) * 4) as u64;
+                self.ctx_queue.write_buffer(self.buffer(which), at, bytes);
+            };
+            put(FieldBinding::UIn, bytemuck::cast_slice(&env.u));
+            put(FieldBinding::VIn, bytemuck::cast_slice(&env.v));
+            put(FieldBinding::Pressure, bytemuck::cast_slice(&env.p));
+            put(FieldBinding::Body, bytemuck::cast_slice(&env.body));
+            put(FieldBinding::DivStar, bytemuck::cast_slice(&env.divstar));
+            if n > 0 {
+                let b = env.boxes[0];
+                put(FieldBinding::Members, bytemuck::cast_slice(&env.members));
+                put(
+                    FieldBinding::MemberDiag,
+                    bytemuck::cast_slice(native.batch.diags(e)),
+                );
+                put(FieldBinding::SwarmBox, bytemuck::cast_slice(&[b, b]));
+                members.extend_from_slice(&env.members);
+                diags.extend_from_slice(native.batch.diags(e));
+            }
+        }
+        self.native = Some(native);
+        self.last_members = members;
+        self.last_diag = diags;
+        for t in &mut self.time_s {
+            *t += self.control_dt;
+        }
+        self.steps += 1;
+        Ok(health)
     }
 
     fn create_buffers(
@@ -613,6 +774,7 @@ impl FluidBatch {
             0,
             bytemuck::cast_slice(actions),
         );
+        self.device_written(FieldBinding::Thrust, None, bytemuck::cast_slice(actions));
     }
 
     /// Members of every environment, [E][N], as read back with the last step's health.
@@ -702,6 +864,7 @@ impl FluidBatch {
         );
         self.ctx_queue
             .write_buffer(self.buffer(which), (e * per_env) as u64, bytes);
+        self.device_written(which, Some(e), bytes);
         Ok(())
     }
 
@@ -714,6 +877,7 @@ impl FluidBatch {
     pub fn write_all(&self, which: FieldBinding, data: &[f32]) {
         self.ctx_queue
             .write_buffer(self.buffer(which), 0, bytemuck::cast_slice(data));
+        self.device_written(which, None, bytemuck::cast_slice(data));
     }
 
     /// Reads a whole buffer (all environments).
@@ -810,15 +974,20 @@ impl FluidBatch {
     /// Writes the inlet centreline velocity of every environment at the end of every substep
     /// of the coming control step.
     fn upload_inlet(&self) {
+        self.write_all(FieldBinding::Inlet, &self.inlet_values());
+    }
+
+    /// The inlet centreline velocity of every environment at the end of every substep of the
+    /// coming control step, [E][S] (m/s).
+    fn inlet_values(&self) -> Vec<f32> {
         let dt_sub = self.control_dt / self.substeps as f64;
-        let values: Vec<f32> = (0..self.n_env)
+        (0..self.n_env)
             .flat_map(|e| {
                 let t0 = self.time_s[e] + self.phase_s[e];
                 (0..self.substeps).map(move |s| (t0, s))
             })
             .map(|(t0, s)| self.waveform.at(t0 + (s as f64 + 1.0) * dt_sub) as f32)
-            .collect();
-        self.write_all(FieldBinding::Inlet, &values);
+            .collect()
     }
 
     fn offset(&self, s: usize) -> u32 {
@@ -850,6 +1019,9 @@ impl FluidBatch {
     /// Advances every environment by one control step (S substeps, one submission) and reads
     /// back the health of each.
     pub fn step(&mut self, ctx: &GpuContext) -> Result<Vec<EnvHealth>, SimError> {
+        if self.native.is_some() {
+            return self.step_native(ctx);
+        }
         self.upload_inlet();
         let mut enc = self
             .ctx_device

@@ -17,7 +17,7 @@
 //! for parallelism, as `benches/substep.rs` does.
 
 use crate::config::Advection;
-use crate::gpu::params::{GpuMember, GpuParams};
+use crate::gpu::params::{GpuMember, GpuMemberDiag, GpuParams};
 use crate::waveform::Waveform;
 
 use rayon::prelude::*;
@@ -43,6 +43,8 @@ pub struct Scratch {
     modes: Vec<f32>,
     divstar: Vec<f32>,
     p: Vec<f32>,
+    /// Forces and pressure samples of every member in the last substep, [E][N].
+    diags: Vec<GpuMemberDiag>,
 }
 
 /// The sizes and constants of one environment's grid.
@@ -582,7 +584,7 @@ pub fn step(batch: &mut CpuBatch, inlet: &[f32], scratch: &mut Scratch) -> Vec<E
             batch.divstar[e * nx..(e + 1) * nx].copy_from_slice(&s.divstar);
         }
         if p.n_members > 0 {
-            let (m, _, boxes) = cpu::move_members(
+            let (m, diags, boxes) = cpu::move_members(
                 &p,
                 &batch.members,
                 &batch.actions,
@@ -592,6 +594,7 @@ pub fn step(batch: &mut CpuBatch, inlet: &[f32], scratch: &mut Scratch) -> Vec<E
             );
             batch.members = m;
             batch.boxes = boxes;
+            s.diags = diags;
         }
     }
     cpu::diagnostics(&p, &batch.u, &batch.v, &batch.p, &batch.divstar)
@@ -654,24 +657,54 @@ impl NativeBatch {
     /// Advances every environment by one control step (in parallel) and returns their health.
     pub fn step(&mut self) -> Vec<EnvHealth> {
         let (waveform, control_dt) = (&self.waveform, self.control_dt);
-        let health = self
+        let inlet: Vec<f32> = self
             .envs
-            .par_iter_mut()
-            .zip(&self.time_s)
-            .zip(&self.phase_s)
-            .map(|(((env, scratch), t), phase)| {
+            .iter()
+            .zip(self.time_s.iter().zip(&self.phase_s))
+            .flat_map(|((env, _), (t, phase))| {
                 let substeps = env.params.substeps as usize;
                 let dt_sub = control_dt / substeps as f64;
-                let inlet: Vec<f32> = (0..substeps)
-                    .map(|s| waveform.at(t + phase + (s as f64 + 1.0) * dt_sub) as f32)
-                    .collect();
-                step(env, &inlet, scratch)[0]
+                (0..substeps)
+                    .map(move |s| waveform.at(t + phase + (s as f64 + 1.0) * dt_sub) as f32)
             })
             .collect();
+        let health = self.step_with_inlet(&inlet);
         for t in &mut self.time_s {
             *t += control_dt;
         }
         health
+    }
+
+    /// Advances every environment by one control step with the given inlet centreline
+    /// velocities, [E][S] (m/s), without touching the clock (for `FluidBatch`, which keeps its
+    /// own).
+    pub fn step_with_inlet(&mut self, inlet: &[f32]) -> Vec<EnvHealth> {
+        let substeps = self
+            .envs
+            .first()
+            .map_or(0, |e| e.0.params.substeps as usize);
+        assert_eq!(inlet.len(), self.envs.len() * substeps, "inlet is [E][S]");
+        self.envs
+            .par_iter_mut()
+            .zip(inlet.par_chunks(substeps.max(1)))
+            .map(|((env, scratch), inlet)| step(env, inlet, scratch)[0])
+            .collect()
+    }
+
+    /// Replaces environment e's state with a single-environment batch of the same shape.
+    pub fn replace_env(&mut self, e: usize, env: CpuBatch) {
+        assert_eq!(env.params, self.envs[e].0.params, "same grid and members");
+        self.envs[e].0 = env;
+    }
+
+    /// Sets environment e's raw actions, one per member.
+    pub fn set_actions(&mut self, e: usize, actions: &[[f32; 2]]) {
+        self.envs[e].0.actions.copy_from_slice(actions);
+    }
+
+    /// Forces and pressure samples of environment e's members in the last substep.
+    pub fn diags(&self, e: usize) -> &[GpuMemberDiag] {
+        &self.envs[e].1.diags
     }
 }
 

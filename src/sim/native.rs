@@ -400,6 +400,7 @@ fn pressure_rhs(d: &Dim, poisson: &[f32], s: &mut Scratch) {
 
 /// [`pressure_rhs`] for columns i0 .. i0 + N.
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // rows and lanes of parallel arrays, indexed together
 fn rhs_columns<const N: usize>(d: &Dim, poisson: &[f32], s: &mut Scratch, i0: usize) {
     let (nx, ny, p) = (d.nx, d.ny, &d.p);
     let (u, v) = (&s.u_out, &s.v_out);

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
-use fluxswarm_gpu::config::{Config, Resolved};
+use fluxswarm_gpu::config::{Backend, Config, Resolved};
 use fluxswarm_gpu::gpu::{AdapterChoice, GpuContext, probe};
 
 #[derive(Debug, Args, Clone)]
@@ -28,6 +28,19 @@ pub fn write_gif(out: &std::path::Path, prefix: &str) -> anyhow::Result<()> {
     gif::write(&frames, &path, gif::README_WIDTH, 80)?;
     log::info!("{} frames -> {}", frames.len(), path.display());
     Ok(())
+}
+
+/// What runs the control step, for run headers: the adapter, or the native backend (with
+/// the adapter that only holds its buffers).
+pub fn runs_on(ctx: &GpuContext, resolved: &Resolved) -> String {
+    match resolved.config.solver.backend {
+        Backend::Adapter => ctx.describe(),
+        Backend::Native => format!(
+            "native CPU backend, {} threads (buffers on {})",
+            rayon::current_num_threads(),
+            ctx.describe()
+        ),
+    }
 }
 
 impl ConfigArgs {

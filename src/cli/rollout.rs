@@ -152,7 +152,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
         args.seed,
         args.envs,
         args.episodes,
-        ctx.describe()
+        super::common::runs_on(&ctx, &resolved)
     );
     std::fs::write(out.join("config.toml"), header + &resolved.config.to_toml())
         .context("writing config.toml")?;

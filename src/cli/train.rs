@@ -136,7 +136,7 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
                 plan.seed,
                 plan.envs,
                 plan.steps,
-                ctx.describe()
+                super::common::runs_on(&ctx, &plan.resolved)
             );
             std::fs::write(
                 plan.out.join("config.toml"),

@@ -100,6 +100,9 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
         None => fresh_plan(&mut args)?,
     };
     let ctx = args.common.open_gpu()?;
+    if resumed.is_none() {
+        super::common::suggest_native(&ctx, &plan.resolved);
+    }
     let swarm = SwarmEnv::new(&ctx, &plan.resolved, plan.envs, plan.seed)?;
     let mut env = GpuSwarmEnv {
         env: swarm,

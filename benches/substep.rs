@@ -77,5 +77,11 @@ fn substep(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, substep);
+// No plots: criterion's plotters backend needs system fonts, which headless machines lack
+// (it panics with FontUnavailable); the numbers go to the terminal and target/criterion.
+criterion_group! {
+    name = benches;
+    config = Criterion::default().without_plots();
+    targets = substep
+}
 criterion_main!(benches);

@@ -6,5 +6,5 @@ source "$(dirname "$0")/common.sh"
 out=${1:-runs/experiments/baselines}
 for policy in upstream wall; do
     rollout_once "$out/$policy" --policy "$policy" --envs "$EVAL_ENVS" \
-        --episodes "$EVAL_EPISODES" --seed "$EVAL_SEED"
+        --episodes "$EVAL_EPISODES" --seed "$EVAL_SEED" "${BACKEND_SET[@]}"
 done

@@ -17,6 +17,14 @@ fluxswarm() {
     "$FLUXSWARM_BIN" "$@"
 }
 
+# FLUXSWARM_BACKEND=native: new training runs and the baseline rollouts run the control step
+# natively on the CPU cores (README, Performance). Resumed runs and rollouts of a checkpoint keep
+# the backend saved with it.
+BACKEND_SET=()
+if [ "${FLUXSWARM_BACKEND:-adapter}" != adapter ]; then
+    BACKEND_SET=(--set "solver.backend=$FLUXSWARM_BACKEND")
+fi
+
 say() { echo "== $(date -u +%H:%M:%S) $*" >&2; }
 
 # train_run DIR SEED STEPS ENVS [train flags...]: trains into DIR, or continues DIR up to STEPS.
@@ -28,7 +36,8 @@ train_run() {
         fluxswarm train --resume "$dir" --steps "$steps" >/dev/null
     else
         say "train $dir: seed $seed, $envs environments, $steps global steps $*"
-        fluxswarm train --envs "$envs" --seed "$seed" --steps "$steps" --out "$dir" "$@" >/dev/null
+        fluxswarm train --envs "$envs" --seed "$seed" --steps "$steps" --out "$dir" \
+            "${BACKEND_SET[@]}" "$@" >/dev/null
     fi
 }
 

@@ -394,29 +394,40 @@ impl FluidBatch {
         e: usize,
         poisson: &[f32],
     ) -> Result<CpuBatch, SimError> {
-        let read = |w| self.read_env(ctx, w, e);
+        self.cpu_batch_from(1, poisson.to_vec(), |w| self.read_env(ctx, w, e))
+    }
+
+    /// A [`CpuBatch`] of `n_env` environments from `read`, which returns a buffer's words for
+    /// those environments.
+    fn cpu_batch_from(
+        &self,
+        n_env: usize,
+        poisson: Vec<f32>,
+        read: impl Fn(FieldBinding) -> Result<Vec<f32>, SimError>,
+    ) -> Result<CpuBatch, SimError> {
         let quads = |v: Vec<f32>| -> Vec<[f32; 4]> {
             v.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()
         };
+        let n = n_env * self.n_members;
         let (members, actions, boxes) = if self.n_members > 0 {
-            let m = read(FieldBinding::Members)?;
+            let m: Vec<GpuMember> = bytemuck::pod_collect_to_vec(&read(FieldBinding::Members)?);
             let t = read(FieldBinding::Thrust)?;
             let b = read(FieldBinding::SwarmBox)?;
             (
-                bytemuck::pod_collect_to_vec(&m),
-                t.chunks(2).map(|c| [c[0], c[1]]).collect(),
-                vec![[b[0], b[1], b[2], b[3]]],
+                m[..n].to_vec(),
+                t.chunks(2).take(n).map(|c| [c[0], c[1]]).collect(),
+                b.chunks(8).map(|c| [c[0], c[1], c[2], c[3]]).collect(),
             )
         } else {
-            (Vec::new(), Vec::new(), vec![[0.0; 4]])
+            (Vec::new(), Vec::new(), vec![[0.0; 4]; n_env])
         };
         Ok(CpuBatch {
             params: GpuParams {
-                n_env: 1,
+                n_env: n_env as u32,
                 ..self.params
             },
             scheme: self.scheme,
-            poisson: poisson.to_vec(),
+            poisson,
             u: read(FieldBinding::UIn)?,
             v: read(FieldBinding::VIn)?,
             p: read(FieldBinding::Pressure)?,
@@ -894,36 +905,8 @@ impl FluidBatch {
     /// swarm boxes, Poisson tables): the starting point of the CPU twins and the native
     /// yardstick. A full read-back; not for the stepping loop.
     pub fn to_cpu(&self, ctx: &GpuContext) -> Result<CpuBatch, SimError> {
-        let read = |w| self.read_all(ctx, w);
-        let quads = |v: Vec<f32>| -> Vec<[f32; 4]> {
-            v.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()
-        };
-        let n = self.n_env * self.n_members;
-        let (members, actions, boxes) = if self.n_members > 0 {
-            let m = read(FieldBinding::Members)?;
-            let t = read(FieldBinding::Thrust)?;
-            let b = read(FieldBinding::SwarmBox)?;
-            (
-                bytemuck::cast_slice::<f32, GpuMember>(&m)[..n].to_vec(),
-                t.chunks(2).take(n).map(|c| [c[0], c[1]]).collect(),
-                b.chunks(8).map(|c| [c[0], c[1], c[2], c[3]]).collect(),
-            )
-        } else {
-            (Vec::new(), Vec::new(), vec![[0.0; 4]; self.n_env])
-        };
-        Ok(CpuBatch {
-            params: self.params,
-            scheme: self.scheme,
-            poisson: read(FieldBinding::Poisson)?,
-            u: read(FieldBinding::UIn)?,
-            v: read(FieldBinding::VIn)?,
-            p: read(FieldBinding::Pressure)?,
-            body: quads(read(FieldBinding::Body)?),
-            divstar: read(FieldBinding::DivStar)?,
-            members,
-            actions,
-            boxes,
-        })
+        let poisson = self.read_all(ctx, FieldBinding::Poisson)?;
+        self.cpu_batch_from(self.n_env, poisson, |w| self.read_all(ctx, w))
     }
 
     /// Reads environment e's part of a buffer.

@@ -45,6 +45,30 @@ pub struct Scratch {
     p: Vec<f32>,
     /// Forces and pressure samples of every member in the last substep, [E][N].
     diags: Vec<GpuMemberDiag>,
+    row: RowScratch,
+}
+
+/// One row of faces being advected: departure points, stencil corners and weights, and the
+/// sampled values.
+#[derive(Debug, Default, Clone)]
+struct RowScratch {
+    x: Vec<f32>,
+    y: Vec<f32>,
+    corner: Vec<[i32; 2]>,
+    t: Vec<[f32; 2]>,
+    vals: Vec<[f32; 4]>,
+    out: Vec<f32>,
+}
+
+impl RowScratch {
+    fn resize(&mut self, n: usize) {
+        self.x.resize(n, 0.0);
+        self.y.resize(n, 0.0);
+        self.corner.resize(n, [0; 2]);
+        self.t.resize(n, [0.0; 2]);
+        self.vals.resize(n, [0.0; 4]);
+        self.out.resize(n, 0.0);
+    }
 }
 
 /// The sizes and constants of one environment's grid.
@@ -136,6 +160,96 @@ impl Dim {
         (vals, [fx - i0 as f32, fy - j0 as f32])
     }
 
+    /// Bilinear samples of the u-like field `a` at the points (r.x[n], r.y[n]), n < len, into
+    /// r.out (and their stencil extrema into `ext`), exactly as `stencil_u` + `bilerp` per
+    /// point, in three passes: corners and weights (vectorised), the gathers, the blend.
+    #[inline(always)]
+    fn sample_u_row(
+        &self,
+        a: &[f32],
+        r: &mut RowScratch,
+        len: usize,
+        ext: Option<&mut [[f32; 2]]>,
+    ) {
+        let p = &self.p;
+        let (nxf, nyf) = (p.nx as f32, p.ny as f32);
+        let last = self.nx as i32 - 1;
+        for n in 0..len {
+            let fx = (r.x[n] * p.inv_dx).clamp(0.0, nxf);
+            let fy = (r.y[n] * p.inv_dy).clamp(0.0, nyf) - 0.5;
+            let i0 = floor_i32(fx).min(last);
+            let j0 = floor_i32(fy);
+            r.corner[n] = [i0, j0];
+            r.t[n] = [fx - i0 as f32, fy - j0 as f32];
+        }
+        let row = self.nx + 1;
+        for n in 0..len {
+            let [i0, j0] = r.corner[n];
+            r.vals[n] = if j0 >= 0 && j0 + 1 < self.ny as i32 {
+                let k = j0 as usize * row + i0 as usize;
+                [a[k], a[k + 1], a[k + row], a[k + row + 1]]
+            } else {
+                [
+                    self.fetch_u(a, i0, j0),
+                    self.fetch_u(a, i0 + 1, j0),
+                    self.fetch_u(a, i0, j0 + 1),
+                    self.fetch_u(a, i0 + 1, j0 + 1),
+                ]
+            };
+        }
+        Self::blend(r, len, ext);
+    }
+
+    /// As [`Self::sample_u_row`] for a v-like field (`stencil_v`).
+    #[inline(always)]
+    fn sample_v_row(
+        &self,
+        a: &[f32],
+        r: &mut RowScratch,
+        len: usize,
+        ext: Option<&mut [[f32; 2]]>,
+    ) {
+        let p = &self.p;
+        let (nxf, nyf) = (p.nx as f32, p.ny as f32);
+        let top = self.ny as i32 - 1;
+        for n in 0..len {
+            let fx = (r.x[n] * p.inv_dx).clamp(0.0, nxf) - 0.5;
+            let fy = (r.y[n] * p.inv_dy).clamp(0.0, nyf);
+            let i0 = floor_i32(fx);
+            let j0 = floor_i32(fy).min(top);
+            r.corner[n] = [i0, j0];
+            r.t[n] = [fx - i0 as f32, fy - j0 as f32];
+        }
+        let nx = self.nx;
+        for n in 0..len {
+            let [i0, j0] = r.corner[n];
+            r.vals[n] = if i0 >= 0 && i0 + 1 < nx as i32 {
+                let k = j0 as usize * nx + i0 as usize;
+                [a[k], a[k + 1], a[k + nx], a[k + nx + 1]]
+            } else {
+                [
+                    self.fetch_v(a, i0, j0),
+                    self.fetch_v(a, i0 + 1, j0),
+                    self.fetch_v(a, i0, j0 + 1),
+                    self.fetch_v(a, i0 + 1, j0 + 1),
+                ]
+            };
+        }
+        Self::blend(r, len, ext);
+    }
+
+    #[inline(always)]
+    fn blend(r: &mut RowScratch, len: usize, ext: Option<&mut [[f32; 2]]>) {
+        for n in 0..len {
+            r.out[n] = bilerp(r.vals[n], r.t[n]);
+        }
+        if let Some(ext) = ext {
+            for (e, vals) in ext[..len].iter_mut().zip(&r.vals) {
+                *e = extrema(*vals);
+            }
+        }
+    }
+
     /// Input velocity at u face (i, j): its u and the mean of the four v faces around it.
     #[inline(always)]
     fn velocity_at_u_face(&self, u: &[f32], v: &[f32], i: usize, j: usize) -> [f32; 2] {
@@ -150,23 +264,6 @@ impl Dim {
                 + self.fetch_v(v, a, b + 1)
         };
         [u[j * (self.nx + 1) + i], 0.25 * s]
-    }
-
-    /// Input velocity at v face (i, j): its v and the mean of the four u faces around it.
-    #[inline(always)]
-    fn velocity_at_v_face(&self, u: &[f32], v: &[f32], i: usize, j: usize) -> [f32; 2] {
-        let s = if j >= 1 && j < self.ny {
-            let row = self.nx + 1;
-            let k = (j - 1) * row + i;
-            u[k] + u[k + 1] + u[k + row] + u[k + row + 1]
-        } else {
-            let (a, b) = (i as i32, j as i32);
-            self.fetch_u(u, a, b - 1)
-                + self.fetch_u(u, a + 1, b - 1)
-                + self.fetch_u(u, a, b)
-                + self.fetch_u(u, a + 1, b)
-        };
-        [0.25 * s, v[j * self.nx + i]]
     }
 
     /// Departure point from pos after a step h (Euler, or the midpoint rule in the input
@@ -295,7 +392,9 @@ fn diffuse(d: &Dim, u: &[f32], v: &[f32], w_u: &mut [f32], w_v: &mut [f32]) {
     }
 }
 
-/// The momentum predictor u* of one environment into s.u_out / s.v_out.
+/// The momentum predictor u* of one environment into s.u_out / s.v_out, a row of faces at a
+/// time: face velocities and departure points, then the row's samples, then the update.
+#[inline(always)]
 fn advect(
     d: &Dim,
     scheme: Advection,
@@ -308,77 +407,140 @@ fn advect(
     let (nx, ny, p) = (d.nx, d.ny, d.p);
     let row = nx + 1;
     diffuse(d, u, v, &mut s.w_u, &mut s.w_v);
+    s.row.resize(nx);
     let mac = scheme == Advection::Maccormack;
+    // Face velocities (the predictor's, reused by the correction).
+    for j in 0..ny {
+        let base = j * row;
+        for i in 1..nx {
+            let k = j * nx + i - 1;
+            let sum = v[k] + v[k + 1] + v[k + nx] + v[k + nx + 1];
+            s.vel_u[base + i] = [u[base + i], 0.25 * sum];
+        }
+        s.vel_u[base + nx] = d.velocity_at_u_face(u, v, nx, j);
+    }
+    for j in 1..ny {
+        for i in 0..nx {
+            let k = (j - 1) * row + i;
+            let sum = u[k] + u[k + 1] + u[k + row] + u[k + row + 1];
+            s.vel_v[j * nx + i] = [0.25 * sum, v[j * nx + i]];
+        }
+    }
+    let h_forward = p.dt;
     if mac {
         for j in 0..ny {
+            let faces = j * row + 1..j * row + row;
             s.hat_u[j * row] = u[j * row];
-            for i in 1..=nx {
-                let vel = d.velocity_at_u_face(u, v, i, j);
-                s.vel_u[j * row + i] = vel;
-                let dep = d.trace(u, v, d.u_pos(i, j), vel, p.dt);
-                let (st, t) = d.stencil_u(&s.w_u, dep[0], dep[1]);
-                s.hat_u[j * row + i] = bilerp(st, t);
-                s.ext_u[j * row + i] = extrema(st);
-            }
+            departures_u(d, u, v, j, &s.vel_u[faces.clone()], h_forward, &mut s.row);
+            d.sample_u_row(&s.w_u, &mut s.row, nx, Some(&mut s.ext_u[faces.clone()]));
+            s.hat_u[faces].copy_from_slice(&s.row.out[..nx]);
         }
-        for j in 0..=ny {
-            for i in 0..nx {
-                let k = j * nx + i;
-                if j == 0 || j == ny {
-                    s.hat_v[k] = 0.0;
-                    continue;
-                }
-                let vel = d.velocity_at_v_face(u, v, i, j);
-                s.vel_v[k] = vel;
-                let dep = d.trace(u, v, d.v_pos(i, j), vel, p.dt);
-                let (st, t) = d.stencil_v(&s.w_v, dep[0], dep[1]);
-                s.hat_v[k] = bilerp(st, t);
-                s.ext_v[k] = extrema(st);
-            }
+        s.hat_v[..nx].fill(0.0);
+        s.hat_v[ny * nx..].fill(0.0);
+        for j in 1..ny {
+            let faces = j * nx..(j + 1) * nx;
+            departures_v(d, u, v, j, &s.vel_v[faces.clone()], h_forward, &mut s.row);
+            d.sample_v_row(&s.w_v, &mut s.row, nx, Some(&mut s.ext_v[faces.clone()]));
+            s.hat_v[faces].copy_from_slice(&s.row.out[..nx]);
         }
     }
     for j in 0..ny {
         let y = (j as f32 + 0.5) * p.dy;
         s.u_out[j * row] = 4.0 * centre * y * (p.height - y) / (p.height * p.height);
+        let faces = j * row + 1..j * row + row;
+        if mac {
+            departures_u(d, u, v, j, &s.vel_u[faces.clone()], -p.dt, &mut s.row);
+            d.sample_u_row(&s.hat_u, &mut s.row, nx, None);
+        } else {
+            departures_u(d, u, v, j, &s.vel_u[faces.clone()], h_forward, &mut s.row);
+            d.sample_u_row(&s.w_u, &mut s.row, nx, None);
+        }
         for i in 1..=nx {
             let k = j * row + i;
+            let sampled = s.row.out[i - 1];
             let w = if mac {
-                let vel = s.vel_u[k];
-                let dep = d.trace(u, v, d.u_pos(i, j), vel, -p.dt);
-                let (st, t) = d.stencil_u(&s.hat_u, dep[0], dep[1]);
-                limited(s.hat_u[k] + 0.5 * (s.w_u[k] - bilerp(st, t)), s.ext_u[k])
+                limited(s.hat_u[k] + 0.5 * (s.w_u[k] - sampled), s.ext_u[k])
             } else {
-                let vel = d.velocity_at_u_face(u, v, i, j);
-                let dep = d.trace(u, v, d.u_pos(i, j), vel, p.dt);
-                let (st, t) = d.stencil_u(&s.w_u, dep[0], dep[1]);
-                bilerp(st, t)
+                sampled
             };
             let a = body[j * nx + i.max(1) - 1];
             let b = body[j * nx + i.min(nx - 1)];
             s.u_out[k] = brinkman(w, a[0], a[1], b[0], b[1]);
         }
     }
-    for j in 0..=ny {
+    s.v_out[..nx].fill(0.0);
+    s.v_out[ny * nx..].fill(0.0);
+    for j in 1..ny {
+        let faces = j * nx..(j + 1) * nx;
+        if mac {
+            departures_v(d, u, v, j, &s.vel_v[faces.clone()], -p.dt, &mut s.row);
+            d.sample_v_row(&s.hat_v, &mut s.row, nx, None);
+        } else {
+            departures_v(d, u, v, j, &s.vel_v[faces.clone()], h_forward, &mut s.row);
+            d.sample_v_row(&s.w_v, &mut s.row, nx, None);
+        }
         for i in 0..nx {
             let k = j * nx + i;
-            if j == 0 || j == ny {
-                s.v_out[k] = 0.0;
-                continue;
-            }
+            let sampled = s.row.out[i];
             let w = if mac {
-                let vel = s.vel_v[k];
-                let dep = d.trace(u, v, d.v_pos(i, j), vel, -p.dt);
-                let (st, t) = d.stencil_v(&s.hat_v, dep[0], dep[1]);
-                limited(s.hat_v[k] + 0.5 * (s.w_v[k] - bilerp(st, t)), s.ext_v[k])
+                limited(s.hat_v[k] + 0.5 * (s.w_v[k] - sampled), s.ext_v[k])
             } else {
-                let vel = d.velocity_at_v_face(u, v, i, j);
-                let dep = d.trace(u, v, d.v_pos(i, j), vel, p.dt);
-                let (st, t) = d.stencil_v(&s.w_v, dep[0], dep[1]);
-                bilerp(st, t)
+                sampled
             };
             let a = body[(j - 1) * nx + i];
             let b = body[j * nx + i];
             s.v_out[k] = brinkman(w, a[0], a[2], b[0], b[2]);
+        }
+    }
+}
+
+/// Departure points (into r.x, r.y) of u faces 1..=nx of row j after a step h, from their
+/// velocities `vel`, as `trace` per face (the Euler loop vectorises).
+#[inline(always)]
+fn departures_u(
+    d: &Dim,
+    u: &[f32],
+    v: &[f32],
+    j: usize,
+    vel: &[[f32; 2]],
+    h: f32,
+    r: &mut RowScratch,
+) {
+    let y = (j as f32 + 0.5) * d.p.dy;
+    if d.p.rk2 == 0 {
+        for (n, vel) in vel.iter().enumerate() {
+            r.x[n] = (n + 1) as f32 * d.p.dx - h * vel[0];
+            r.y[n] = y - h * vel[1];
+        }
+    } else {
+        for (n, vel) in vel.iter().enumerate() {
+            let dep = d.trace(u, v, d.u_pos(n + 1, j), *vel, h);
+            (r.x[n], r.y[n]) = (dep[0], dep[1]);
+        }
+    }
+}
+
+/// Departure points of v faces 0..nx of row j (as [`departures_u`]).
+#[inline(always)]
+fn departures_v(
+    d: &Dim,
+    u: &[f32],
+    v: &[f32],
+    j: usize,
+    vel: &[[f32; 2]],
+    h: f32,
+    r: &mut RowScratch,
+) {
+    let y = j as f32 * d.p.dy;
+    if d.p.rk2 == 0 {
+        for (n, vel) in vel.iter().enumerate() {
+            r.x[n] = (n as f32 + 0.5) * d.p.dx - h * vel[0];
+            r.y[n] = y - h * vel[1];
+        }
+    } else {
+        for (n, vel) in vel.iter().enumerate() {
+            let dep = d.trace(u, v, d.v_pos(n, j), *vel, h);
+            (r.x[n], r.y[n]) = (dep[0], dep[1]);
         }
     }
 }

@@ -9,7 +9,7 @@
 #   E = 4, DIR = runs/experiments. Interrupt it at any time: re-running the same command
 #   continues every unfinished run (train --resume) and skips finished stages; a larger --steps
 #   extends the runs. --native (or FLUXSWARM_BACKEND=native) runs new training runs and the
-#   baselines with the native CPU backend, about 2.5x faster without a GPU.
+#   baselines with the native CPU backend, 2.5-3x faster training without a GPU.
 source "$(dirname "$0")/common.sh"
 here="$(dirname "$0")"
 steps=108000 seeds=3 out=runs/experiments resolution=1

@@ -236,7 +236,7 @@ pub enum Backend {
     Adapter,
     /// `sim::native`: the same control step in plain Rust on the CPU cores (rayon, one
     /// environment per task); equal to the CPU twins bit for bit. On a machine without a GPU
-    /// it is about 2.5-3x faster than lavapipe (README, Performance).
+    /// it is about 4x faster than lavapipe (README, Performance).
     Native,
 }
 

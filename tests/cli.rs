@@ -149,6 +149,65 @@ fn bench_writes_its_table_and_csv() {
     assert_eq!(cols[4], "1");
 }
 
+/// `bench --native` adds the native step's rate at each batch size and writes native.csv; the
+/// native backend's own bench table has no dispatches.
+#[test]
+fn bench_native_writes_the_ratio_to_the_adapter() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bench");
+    let mut args = vec![
+        "bench",
+        "--envs",
+        "1,3",
+        "--seconds",
+        "0.05",
+        "--native",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(SMALL);
+    let o = bin(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("native yardstick"), "{}", text(&o));
+    let csv = std::fs::read_to_string(out.join("native.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(
+        lines[0],
+        "envs,native_env_steps_per_s,adapter_env_steps_per_s,native_over_adapter,threads,adapter"
+    );
+    assert_eq!(lines.len(), 3);
+    let cols: Vec<&str> = lines[2].split(',').collect();
+    assert_eq!(cols[0], "3");
+    let (native, adapter, ratio): (f64, f64, f64) = (
+        cols[1].parse().unwrap(),
+        cols[2].parse().unwrap(),
+        cols[3].parse().unwrap(),
+    );
+    assert!(native > 0.0 && adapter > 0.0);
+    assert!((ratio - native / adapter).abs() <= 1e-3 * ratio.max(1.0) + 1e-4);
+    assert!(cols[4].parse::<usize>().unwrap() >= 1);
+
+    let out = dir.path().join("backend");
+    let mut args = vec![
+        "bench",
+        "--envs",
+        "2",
+        "--seconds",
+        "0.05",
+        "--set",
+        "solver.backend=native",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(SMALL);
+    let o = bin(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
+    let row: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
+    assert_eq!(row[3], "0", "no dispatches on the native backend");
+    assert!(row.last().unwrap().contains("native CPU backend"), "{csv}");
+}
+
 #[test]
 fn info_reports_adapter_limits_and_self_check() {
     let o = bin(&["info"]);

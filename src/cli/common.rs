@@ -47,7 +47,7 @@ pub fn runs_on(ctx: &GpuContext, resolved: &Resolved) -> String {
 pub fn suggest_native(ctx: &GpuContext, resolved: &Resolved) {
     if ctx.is_software() && resolved.config.solver.backend == Backend::Adapter {
         log::info!(
-            "no GPU: `--set solver.backend=native` runs the same control step about 3x faster on these CPU cores (README, Performance)"
+            "no GPU: `--set solver.backend=native` runs the same control step about 4x faster on these CPU cores (README, Performance)"
         );
     }
 }

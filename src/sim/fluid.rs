@@ -444,15 +444,21 @@ impl FluidBatch {
     /// swarm boxes) and advance the clocks.
     fn step_native(&mut self, ctx: &GpuContext) -> Result<Vec<EnvHealth>, SimError> {
         let inlet = self.inlet_values();
+        // Read the stale environments before taking the native state out of `self`, so that a
+        // failed read leaves the batch in native mode with those environments still stale.
+        let mut fresh = Vec::new();
+        if let Some(native) = &self.native {
+            let stale: Vec<usize> = (0..self.n_env)
+                .filter(|&e| native.stale.borrow()[e])
+                .collect();
+            for e in stale {
+                let poisson = &native.batch.env(e).poisson;
+                fresh.push((e, self.env_to_cpu(ctx, e, poisson)?));
+            }
+        }
         let mut native = self.native.take().expect("native mode");
-        let stale: Vec<usize> = (0..self.n_env)
-            .filter(|&e| native.stale.borrow()[e])
-            .collect();
-        for e in stale {
-            let poisson = native.batch.env(e).poisson.clone();
-            native
-                .batch
-                .replace_env(e, self.env_to_cpu(ctx, e, &poisson)?);
+        for (e, env) in fresh {
+            native.batch.replace_env(e, env);
         }
         native.stale.borrow_mut().fill(false);
         let n = self.n_members;

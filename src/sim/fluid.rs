@@ -1056,8 +1056,12 @@ impl FluidBatch {
             .collect()
     }
 
-    /// Whether the device can time each dispatch ([`Self::profile_step`]).
+    /// Whether the device can time each dispatch ([`Self::profile_step`]); never on the native
+    /// backend.
     pub fn can_profile(&self) -> bool {
+        if self.native.is_some() {
+            return false; // the native step has no dispatches to time
+        }
         let need = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES;
         self.ctx_device.features().contains(need)
     }
@@ -1206,6 +1210,10 @@ impl FluidBatch {
             }
         }
         self.ctx_queue.submit([enc.finish()]);
+        // The kernels wrote the device buffers: a native batch takes them back at its next step.
+        if let Some(native) = &self.native {
+            native.stale.borrow_mut().fill(true);
+        }
         ctx.wait()?;
         Ok(())
     }

@@ -46,7 +46,10 @@ fn native_backend_tracks_the_adapter_through_resets_and_writes() {
     let mut a = batch(&ctx, "adapter");
     let mut b = batch(&ctx, "native");
     assert!(!a.is_native() && b.is_native());
-    assert!(!b.can_profile(), "the native step has no dispatches to time");
+    assert!(
+        !b.can_profile(),
+        "the native step has no dispatches to time"
+    );
     let n = a.n_members();
     let actions: Vec<[f32; 2]> = (0..2 * n)
         .map(|k| [-1.0 + 0.3 * k as f32, 0.5 - 0.2 * k as f32])

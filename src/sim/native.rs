@@ -115,15 +115,48 @@ impl Dim {
         }
     }
 
-    /// Bilinear stencil of a u-like field around (x, y), as `G::stencil_u`.
+    /// Bilinear stencil of a u-like field around (x, y), as `G::stencil_u`: the values at
+    /// its four corners and the weights.
     #[inline(always)]
     fn stencil_u(&self, a: &[f32], x: f32, y: f32) -> ([f32; 4], [f32; 2]) {
+        let (corner, t) = self.corner_u(x, y);
+        (self.gather_u(a, corner), t)
+    }
+
+    /// As [`Self::stencil_u`] for a v-like field (`G::stencil_v`).
+    #[inline(always)]
+    fn stencil_v(&self, a: &[f32], x: f32, y: f32) -> ([f32; 4], [f32; 2]) {
+        let (corner, t) = self.corner_v(x, y);
+        (self.gather_v(a, corner), t)
+    }
+
+    /// Lower-left stored u face (i0, j0) of the stencil around (x, y) (clamped into the
+    /// channel) and the fractional position inside it.
+    #[inline(always)]
+    fn corner_u(&self, x: f32, y: f32) -> ([i32; 2], [f32; 2]) {
         let p = &self.p;
         let fx = (x * p.inv_dx).clamp(0.0, p.nx as f32);
         let fy = (y * p.inv_dy).clamp(0.0, p.ny as f32) - 0.5;
         let i0 = floor_i32(fx).min(self.nx as i32 - 1);
         let j0 = floor_i32(fy);
-        let vals = if j0 >= 0 && j0 + 1 < self.ny as i32 {
+        ([i0, j0], [fx - i0 as f32, fy - j0 as f32])
+    }
+
+    /// As [`Self::corner_u`] for v faces.
+    #[inline(always)]
+    fn corner_v(&self, x: f32, y: f32) -> ([i32; 2], [f32; 2]) {
+        let p = &self.p;
+        let fx = (x * p.inv_dx).clamp(0.0, p.nx as f32) - 0.5;
+        let fy = (y * p.inv_dy).clamp(0.0, p.ny as f32);
+        let i0 = floor_i32(fx);
+        let j0 = floor_i32(fy).min(self.ny as i32 - 1);
+        ([i0, j0], [fx - i0 as f32, fy - j0 as f32])
+    }
+
+    /// The four values of a u-like stencil from its corner (ghosts mapped off the interior).
+    #[inline(always)]
+    fn gather_u(&self, a: &[f32], [i0, j0]: [i32; 2]) -> [f32; 4] {
+        if j0 >= 0 && j0 + 1 < self.ny as i32 {
             let row = self.nx + 1;
             let k = j0 as usize * row + i0 as usize;
             [a[k], a[k + 1], a[k + row], a[k + row + 1]]
@@ -134,21 +167,16 @@ impl Dim {
                 self.fetch_u(a, i0, j0 + 1),
                 self.fetch_u(a, i0 + 1, j0 + 1),
             ]
-        };
-        (vals, [fx - i0 as f32, fy - j0 as f32])
+        }
     }
 
-    /// Bilinear stencil of a v-like field around (x, y), as `G::stencil_v`.
+    /// As [`Self::gather_u`] for a v-like field.
     #[inline(always)]
-    fn stencil_v(&self, a: &[f32], x: f32, y: f32) -> ([f32; 4], [f32; 2]) {
-        let p = &self.p;
-        let fx = (x * p.inv_dx).clamp(0.0, p.nx as f32) - 0.5;
-        let fy = (y * p.inv_dy).clamp(0.0, p.ny as f32);
-        let i0 = floor_i32(fx);
-        let j0 = floor_i32(fy).min(self.ny as i32 - 1);
-        let vals = if i0 >= 0 && i0 + 1 < self.nx as i32 {
-            let k = j0 as usize * self.nx + i0 as usize;
-            [a[k], a[k + 1], a[k + self.nx], a[k + self.nx + 1]]
+    fn gather_v(&self, a: &[f32], [i0, j0]: [i32; 2]) -> [f32; 4] {
+        let nx = self.nx;
+        if i0 >= 0 && i0 + 1 < nx as i32 {
+            let k = j0 as usize * nx + i0 as usize;
+            [a[k], a[k + 1], a[k + nx], a[k + nx + 1]]
         } else {
             [
                 self.fetch_v(a, i0, j0),
@@ -156,8 +184,7 @@ impl Dim {
                 self.fetch_v(a, i0, j0 + 1),
                 self.fetch_v(a, i0 + 1, j0 + 1),
             ]
-        };
-        (vals, [fx - i0 as f32, fy - j0 as f32])
+        }
     }
 
     /// Bilinear samples of the u-like field `a` at the points (r.x[n], r.y[n]), n < len, into
@@ -171,36 +198,16 @@ impl Dim {
         len: usize,
         ext: Option<&mut [[f32; 2]]>,
     ) {
-        let p = &self.p;
-        let (nxf, nyf) = (p.nx as f32, p.ny as f32);
-        let last = self.nx as i32 - 1;
         for n in 0..len {
-            let fx = (r.x[n] * p.inv_dx).clamp(0.0, nxf);
-            let fy = (r.y[n] * p.inv_dy).clamp(0.0, nyf) - 0.5;
-            let i0 = floor_i32(fx).min(last);
-            let j0 = floor_i32(fy);
-            r.corner[n] = [i0, j0];
-            r.t[n] = [fx - i0 as f32, fy - j0 as f32];
+            (r.corner[n], r.t[n]) = self.corner_u(r.x[n], r.y[n]);
         }
-        let row = self.nx + 1;
         for n in 0..len {
-            let [i0, j0] = r.corner[n];
-            r.vals[n] = if j0 >= 0 && j0 + 1 < self.ny as i32 {
-                let k = j0 as usize * row + i0 as usize;
-                [a[k], a[k + 1], a[k + row], a[k + row + 1]]
-            } else {
-                [
-                    self.fetch_u(a, i0, j0),
-                    self.fetch_u(a, i0 + 1, j0),
-                    self.fetch_u(a, i0, j0 + 1),
-                    self.fetch_u(a, i0 + 1, j0 + 1),
-                ]
-            };
+            r.vals[n] = self.gather_u(a, r.corner[n]);
         }
         Self::blend(r, len, ext);
     }
 
-    /// As [`Self::sample_u_row`] for a v-like field (`stencil_v`).
+    /// As [`Self::sample_u_row`] for a v-like field.
     #[inline(always)]
     fn sample_v_row(
         &self,
@@ -209,31 +216,11 @@ impl Dim {
         len: usize,
         ext: Option<&mut [[f32; 2]]>,
     ) {
-        let p = &self.p;
-        let (nxf, nyf) = (p.nx as f32, p.ny as f32);
-        let top = self.ny as i32 - 1;
         for n in 0..len {
-            let fx = (r.x[n] * p.inv_dx).clamp(0.0, nxf) - 0.5;
-            let fy = (r.y[n] * p.inv_dy).clamp(0.0, nyf);
-            let i0 = floor_i32(fx);
-            let j0 = floor_i32(fy).min(top);
-            r.corner[n] = [i0, j0];
-            r.t[n] = [fx - i0 as f32, fy - j0 as f32];
+            (r.corner[n], r.t[n]) = self.corner_v(r.x[n], r.y[n]);
         }
-        let nx = self.nx;
         for n in 0..len {
-            let [i0, j0] = r.corner[n];
-            r.vals[n] = if i0 >= 0 && i0 + 1 < nx as i32 {
-                let k = j0 as usize * nx + i0 as usize;
-                [a[k], a[k + 1], a[k + nx], a[k + nx + 1]]
-            } else {
-                [
-                    self.fetch_v(a, i0, j0),
-                    self.fetch_v(a, i0 + 1, j0),
-                    self.fetch_v(a, i0, j0 + 1),
-                    self.fetch_v(a, i0 + 1, j0 + 1),
-                ]
-            };
+            r.vals[n] = self.gather_v(a, r.corner[n]);
         }
         Self::blend(r, len, ext);
     }

@@ -112,31 +112,36 @@ fn bad_config_key_fails_with_the_key_named() {
     assert!(!t.contains("adapter:"), "rejected before any GPU work: {t}");
 }
 
+/// Runs `bench --envs ENVS --seconds 0.05 EXTRA… --out OUT` on the small grid, checks that it
+/// succeeded and returns its stdout and stderr.
+fn bench(out: &std::path::Path, envs: &str, extra: &[&str]) -> String {
+    let mut args = vec!["bench", "--envs", envs, "--seconds", "0.05"];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["--out", out.to_str().unwrap()]);
+    args.extend_from_slice(SMALL);
+    let o = bin(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    text(&o)
+}
+
+/// The lines of a CSV file written by `bench`.
+fn csv_lines(path: &std::path::Path) -> Vec<String> {
+    let csv = std::fs::read_to_string(path).unwrap();
+    csv.lines().map(str::to_string).collect()
+}
+
 #[test]
 fn bench_writes_its_table_and_csv() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("bench");
-    let mut args = vec![
-        "bench",
-        "--envs",
-        "1,3",
-        "--seconds",
-        "0.05",
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    args.extend_from_slice(SMALL);
-    let o = bin(&args);
-    assert!(o.status.success(), "{}", text(&o));
-    let stdout = String::from_utf8_lossy(&o.stdout);
-    let rows: Vec<&str> = stdout
+    let output = bench(&out, "1,3", &[]);
+    let rows: Vec<&str> = output
         .lines()
         .filter(|l| l.trim_start().starts_with(|c: char| c.is_ascii_digit()))
         .collect();
-    assert_eq!(rows.len(), 2, "{stdout}");
+    assert_eq!(rows.len(), 2, "{output}");
     assert!(rows[0].trim_start().starts_with("1 ") && rows[1].trim_start().starts_with("3 "));
-    let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
-    let lines: Vec<&str> = csv.lines().collect();
+    let lines = csv_lines(&out.join("bench.csv"));
     assert_eq!(
         lines[0],
         "envs,env_steps_per_s,cell_updates_per_s,dispatches_per_substep,pressure_iters_per_substep,fluid_s,pressure_s,swarm_s,readback_s,adapter"
@@ -155,22 +160,9 @@ fn bench_writes_its_table_and_csv() {
 fn bench_native_writes_the_ratio_to_the_adapter() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("bench");
-    let mut args = vec![
-        "bench",
-        "--envs",
-        "1,3",
-        "--seconds",
-        "0.05",
-        "--native",
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    args.extend_from_slice(SMALL);
-    let o = bin(&args);
-    assert!(o.status.success(), "{}", text(&o));
-    assert!(text(&o).contains("native yardstick"), "{}", text(&o));
-    let csv = std::fs::read_to_string(out.join("native.csv")).unwrap();
-    let lines: Vec<&str> = csv.lines().collect();
+    let output = bench(&out, "1,3", &["--native"]);
+    assert!(output.contains("native yardstick"), "{output}");
+    let lines = csv_lines(&out.join("native.csv"));
     assert_eq!(
         lines[0],
         "envs,native_env_steps_per_s,adapter_env_steps_per_s,native_over_adapter,threads,adapter"
@@ -188,25 +180,11 @@ fn bench_native_writes_the_ratio_to_the_adapter() {
     assert!(cols[4].parse::<usize>().unwrap() >= 1);
 
     let out = dir.path().join("backend");
-    let mut args = vec![
-        "bench",
-        "--envs",
-        "2",
-        "--seconds",
-        "0.05",
-        "--set",
-        "solver.backend=native",
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    args.extend_from_slice(SMALL);
-    let o = bin(&args);
-    assert!(o.status.success(), "{}", text(&o));
-    let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
-    let line = csv.lines().nth(1).unwrap();
-    let row: Vec<&str> = line.split(',').collect();
+    bench(&out, "2", &["--set", "solver.backend=native"]);
+    let lines = csv_lines(&out.join("bench.csv"));
+    let row: Vec<&str> = lines[1].split(',').collect();
     assert_eq!(row[3], "0", "no dispatches on the native backend");
-    assert!(line.contains(",\"native CPU backend, "), "{csv}");
+    assert!(lines[1].contains(",\"native CPU backend, "), "{}", lines[1]);
 }
 
 #[test]

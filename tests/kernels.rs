@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{Noise, max_diff, small_config};
+use common::{Noise, max_diff, random_body, small_config};
 use fluxswarm_gpu::config::Advection;
 use fluxswarm_gpu::gpu::GpuContext;
 use fluxswarm_gpu::gpu::kernels::FieldBinding;
@@ -39,19 +39,7 @@ fn randomise(batch: &mut FluidBatch, seed: u64) -> (Vec<f32>, Vec<f32>, Vec<[f32
     let v = n.vec(E * g.n_v(), 0.1);
     let mut body = Vec::new();
     for e in 0..E {
-        let cells: Vec<[f32; 4]> = (0..g.n_cells())
-            .map(|_| {
-                let r = n.next();
-                let chi = if r > 0.5 {
-                    1.0
-                } else if r > 0.3 {
-                    0.5 * (r + 1.0)
-                } else {
-                    0.0
-                };
-                [chi, 0.05 * n.next(), 0.05 * n.next(), 0.0]
-            })
-            .collect();
+        let cells = random_body(&mut n, g.n_cells());
         batch.set_body(e, &cells).unwrap();
         body.extend(cells);
     }

@@ -59,6 +59,24 @@ impl Noise {
     }
 }
 
+/// A random body field of `cells` cells: a quarter fully solid, a tenth partly solid, the rest
+/// fluid, each with a small random body velocity ([chi, u_body, v_body, 0]).
+pub fn random_body(n: &mut Noise, cells: usize) -> Vec<[f32; 4]> {
+    (0..cells)
+        .map(|_| {
+            let r = n.next();
+            let chi = if r > 0.5 {
+                1.0
+            } else if r > 0.3 {
+                0.5 * (r + 1.0)
+            } else {
+                0.0
+            };
+            [chi, 0.05 * n.next(), 0.05 * n.next(), 0.0]
+        })
+        .collect()
+}
+
 /// Largest |a - b| and largest |b|.
 pub fn max_diff(a: &[f32], b: &[f32]) -> (f32, f32) {
     assert_eq!(a.len(), b.len());

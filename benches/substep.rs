@@ -54,12 +54,9 @@ fn substep(c: &mut Criterion) {
     let mut natives = NativeBatch::new(&template, resolved.waveform.clone(), control_dt);
     let mut twins: Vec<CpuBatch> = (0..envs).map(|e| natives.env(e).clone()).collect();
     let substeps = resolved.config.time.substeps as usize;
-    let inlet: Vec<f32> = (0..substeps)
-        .map(|s| {
-            resolved
-                .waveform
-                .at((s + 1) as f64 * resolved.config.dt_sub()) as f32
-        })
+    let inlet: Vec<f32> = resolved
+        .waveform
+        .substep_values(0.0, control_dt, substeps)
         .collect();
 
     let mut group = c.benchmark_group(format!("control_step_nx{nx}_e{envs}"));

@@ -125,6 +125,18 @@ impl Waveform {
         ua + (ub - ua) * (ph - ta) / (tb - ta)
     }
 
+    /// U at the end of each of the `substeps` equal substeps of the control step of length
+    /// `control_dt` that starts at `t0` (s), as the kernels' inlet buffer holds it (f32).
+    pub fn substep_values(
+        &self,
+        t0: f64,
+        control_dt: f64,
+        substeps: usize,
+    ) -> impl Iterator<Item = f32> + '_ {
+        let dt_sub = control_dt / substeps as f64;
+        (0..substeps).map(move |s| self.at(t0 + (s as f64 + 1.0) * dt_sub) as f32)
+    }
+
     /// Largest |U| over a period (at a control point, since U is piecewise linear).
     pub fn peak_abs(&self) -> f64 {
         self.points.iter().map(|p| p.1.abs()).fold(0.0, f64::max)

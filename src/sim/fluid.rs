@@ -969,13 +969,12 @@ impl FluidBatch {
     /// The inlet centreline velocity of every environment at the end of every substep of the
     /// coming control step, [E][S] (m/s).
     fn inlet_values(&self) -> Vec<f32> {
-        let dt_sub = self.control_dt / self.substeps as f64;
         (0..self.n_env)
             .flat_map(|e| {
                 let t0 = self.time_s[e] + self.phase_s[e];
-                (0..self.substeps).map(move |s| (t0, s))
+                self.waveform
+                    .substep_values(t0, self.control_dt, self.substeps)
             })
-            .map(|(t0, s)| self.waveform.at(t0 + (s as f64 + 1.0) * dt_sub) as f32)
             .collect()
     }
 

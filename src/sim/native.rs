@@ -855,10 +855,7 @@ impl NativeBatch {
             .iter()
             .zip(self.time_s.iter().zip(&self.phase_s))
             .flat_map(|((env, _), (t, phase))| {
-                let substeps = env.params.substeps as usize;
-                let dt_sub = control_dt / substeps as f64;
-                (0..substeps)
-                    .map(move |s| waveform.at(t + phase + (s as f64 + 1.0) * dt_sub) as f32)
+                waveform.substep_values(t + phase, control_dt, env.params.substeps as usize)
             })
             .collect();
         let health = self.step_with_inlet(&inlet);

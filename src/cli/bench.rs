@@ -15,6 +15,7 @@ use clap::Args;
 use fluxswarm_gpu::config::Backend;
 use fluxswarm_gpu::gpu::GpuContext;
 use fluxswarm_gpu::output::run_dir;
+use fluxswarm_gpu::sim::EnvHealth;
 use fluxswarm_gpu::sim::native::NativeBatch;
 use fluxswarm_gpu::sim::{FluidBatch, Stage, fluid::PRESSURE_ITERATIONS_PER_SUBSTEP};
 
@@ -79,6 +80,27 @@ fn time_median(reps: usize, mut f: impl FnMut() -> anyhow::Result<()>) -> anyhow
     Ok(median(t))
 }
 
+/// Median time of control steps taken by `step`, at least 3 and for at least `seconds`, and
+/// the health after the last one; a diverged environment is an error.
+fn timed_steps(
+    seconds: f64,
+    mut step: impl FnMut() -> anyhow::Result<Vec<EnvHealth>>,
+) -> anyhow::Result<(f64, Vec<EnvHealth>)> {
+    let mut times = Vec::new();
+    let start = Instant::now();
+    loop {
+        let s = Instant::now();
+        let health = step()?;
+        times.push(s.elapsed().as_secs_f64());
+        if let Some(e) = health.iter().position(|h| h.diverged()) {
+            bail!("environment {e} diverged during the benchmark");
+        }
+        if times.len() >= 3 && start.elapsed().as_secs_f64() >= seconds {
+            return Ok((median(times), health));
+        }
+    }
+}
+
 fn bench_one(
     ctx: &GpuContext,
     args: &BenchArgs,
@@ -87,22 +109,11 @@ fn bench_one(
 ) -> anyhow::Result<Row> {
     let mut batch = FluidBatch::new(ctx, resolved, envs)?;
     batch.step(ctx)?; // warm-up: pipeline compilation, first touches
-    let mut times = Vec::new();
-    let mut residual = 0.0f64;
-    let start = Instant::now();
-    while times.len() < 3 || start.elapsed().as_secs_f64() < args.seconds {
-        let s = Instant::now();
-        let health = batch.step(ctx)?;
-        times.push(s.elapsed().as_secs_f64());
-        if let Some(e) = health.iter().position(|h| h.diverged()) {
-            bail!("environment {e} diverged during the benchmark");
-        }
-        residual = health
-            .iter()
-            .map(|h| h.residual() as f64)
-            .fold(0.0, f64::max);
-    }
-    let step_s = median(times);
+    let (step_s, health) = timed_steps(args.seconds, || Ok(batch.step(ctx)?))?;
+    let residual = health
+        .iter()
+        .map(|h| h.residual() as f64)
+        .fold(0.0, f64::max);
     let substeps = batch.substeps();
     let g = *batch.grid();
     if batch.is_native() {
@@ -295,17 +306,7 @@ fn native_step_s(
         resolved.config.time.control_dt_s,
     );
     batch.step(); // warm-up: first touches of the scratch
-    let mut times = Vec::new();
-    let clock = Instant::now();
-    while times.len() < 3 || clock.elapsed().as_secs_f64() < args.seconds {
-        let s = Instant::now();
-        let health = batch.step();
-        times.push(s.elapsed().as_secs_f64());
-        if let Some(e) = health.iter().position(|h| h.diverged()) {
-            bail!("environment {e} diverged during the native benchmark");
-        }
-    }
-    Ok(median(times))
+    Ok(timed_steps(args.seconds, || Ok(batch.step()))?.0)
 }
 
 /// Times the native yardstick at every batch size, prints it beside the adapter's rate and

@@ -13,4 +13,5 @@ pub mod learn;
 pub mod output;
 pub mod report;
 pub mod sim;
+pub mod tuning;
 pub mod waveform;

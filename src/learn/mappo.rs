@@ -1,8 +1,12 @@
 //! MOMAPPO with PCGrad (SPEC section 5): rollouts of T steps x E environments, GAE per
 //! objective and agent, the joint PPO ratio, one clipped surrogate per objective, PCGrad over
-//! the three actor gradients (one backward pass each; a random projection order per update),
-//! plus the entropy bonus's gradient; the critic learns from 0.5 x the sum of its three heads'
-//! MSE. The actor's and the critic's gradients are clipped separately; Adam for both.
+//! the three actor gradients (a random projection order per minibatch), plus the entropy
+//! bonus's gradient; the critic learns from 0.5 x the sum of its three heads' MSE. The actor's
+//! and the critic's gradients are clipped separately; Adam for both.
+//! The four actor gradients come from one forward and one batched backward pass
+//! ([`Actor::backward`]): each surrogate's gradient is d loss_k / d lp (per sample, plain Rust
+//! in [`clipped_surrogate_grad`]) times the shared d lp / d output, and the entropy bonus is a
+//! second set of output gradients. Tests hold both against candle's autograd of the losses.
 //! Samples are joint transitions (one environment at one step); each epoch splits them into
 //! `minibatches` random minibatches.
 
@@ -12,10 +16,10 @@ use candle_nn::{VarBuilder, VarMap};
 use super::adam::Adam;
 use super::env::MultiAgentEnv;
 use super::gae::{Rollout, gae};
-use super::nets::{Actor, Critic, gaussian_entropy, gaussian_log_prob};
+use super::nets::{Actor, ActorPass, Critic, gaussian_log_prob};
 use super::normalizer::ObsNormalizer;
 use super::pcgrad::{average, pcgrad};
-use super::ppo::clipped_surrogate;
+use super::ppo::clipped_surrogate_grad;
 use super::surgery::{flatten, named_vars, set_values, values};
 use crate::checkpoint::Archive;
 use crate::env::EpisodeSummary;
@@ -51,6 +55,17 @@ pub struct Iteration {
     pub learn_s: f64,
 }
 
+/// What [`Learner::actor_gradients`] returns: flat gradients in `actor_vars` order.
+struct ActorGradients {
+    /// One per objective (progress, energy, smoothness).
+    objectives: Vec<Vec<f32>>,
+    /// The entropy bonus's (already times -entropy_coef).
+    entropy_bonus: Vec<f32>,
+    /// Mean entropy per agent and mean log σ of the minibatch.
+    entropy: f64,
+    mean_log_std: f64,
+}
+
 pub struct Learner {
     pub cfg: TrainConfig,
     agents: usize,
@@ -66,6 +81,11 @@ pub struct Learner {
     normalizer: Option<ObsNormalizer>,
     rng: Rng,
     dev: Device,
+    /// A rayon pool of one thread that runs the networks' tensor work (`act`, `values`, the
+    /// update). candle splits even these small matrix products over rayon's threads (gemm),
+    /// and on two cores the hand-offs cost more than they save. The global pool stays free
+    /// for the native fluid step.
+    pool: std::sync::Arc<rayon::ThreadPool>,
 }
 
 fn adam(vars: &[(String, Var)], lr: f64) -> Adam {
@@ -145,6 +165,7 @@ impl Learner {
             normalizer,
             rng,
             dev,
+            pool: std::sync::Arc::new(rayon::ThreadPoolBuilder::new().num_threads(1).build()?),
         })
     }
 
@@ -247,6 +268,15 @@ impl Learner {
         obs: &[f32],
         deterministic: bool,
     ) -> anyhow::Result<(Vec<[f32; 2]>, Vec<f32>)> {
+        let pool = self.pool.clone();
+        pool.install(|| self.act_serial(obs, deterministic))
+    }
+
+    fn act_serial(
+        &mut self,
+        obs: &[f32],
+        deterministic: bool,
+    ) -> anyhow::Result<(Vec<[f32; 2]>, Vec<f32>)> {
         let rows = obs.len() / self.obs_dim;
         let x = Tensor::from_slice(obs, (rows, self.obs_dim), &self.dev)?;
         let (mean, log_std) = self.actor.forward(&x)?;
@@ -275,15 +305,17 @@ impl Learner {
 
     /// Values [B][N][3] of joint states given as network inputs [B][N][D].
     pub fn values(&self, obs: &[f32]) -> anyhow::Result<Vec<f32>> {
-        let b = obs.len() / (self.agents * self.obs_dim);
-        let x = Tensor::from_slice(obs, (b, self.agents * self.obs_dim), &self.dev)?;
-        Ok(self
-            .critic
-            .forward(&x)?
-            .transpose(1, 2)?
-            .contiguous()?
-            .flatten_all()?
-            .to_vec1()?)
+        self.pool.install(|| {
+            let b = obs.len() / (self.agents * self.obs_dim);
+            let x = Tensor::from_slice(obs, (b, self.agents * self.obs_dim), &self.dev)?;
+            Ok(self
+                .critic
+                .forward(&x)?
+                .transpose(1, 2)?
+                .contiguous()?
+                .flatten_all()?
+                .to_vec1()?)
+        })
     }
 
     /// Collects one rollout from `env` (continuing from `obs`) and updates the networks.
@@ -388,13 +420,80 @@ impl Learner {
                     .for_each(|x| *x = (*x - m) / (sd + 1e-8));
             }
         }
-        let stats = self.update(&obs_buf, &act_buf, &logp_buf, &adv, &returns, t_len * ne)?;
+        let pool = self.pool.clone();
+        let stats = pool
+            .install(|| self.update(&obs_buf, &act_buf, &logp_buf, &adv, &returns, t_len * ne))?;
         Ok(Iteration {
             stats,
             episodes,
             env_steps: t_len * ne,
             sim_s,
             learn_s: start.elapsed().as_secs_f64() - sim_s,
+        })
+    }
+
+    /// The three objectives' actor gradients and the entropy bonus's, flattened in
+    /// `actor_vars` order, from one forward pass and one batched backward pass, given each
+    /// objective's d loss / d (joint log-probability) `d_lp` [3][B]. Also the mean entropy
+    /// and mean log σ. Rows are agents, `b` samples of `n` agents each; `actions` [B N][2].
+    fn actor_gradients(
+        &self,
+        pass: &ActorPass,
+        actions: &[f32],
+        d_lp: &[Vec<f32>],
+        b: usize,
+        n: usize,
+    ) -> anyhow::Result<ActorGradients> {
+        let rows = b * n;
+        let mean: Vec<f32> = pass.mean.flatten_all()?.to_vec1()?;
+        let log_std: Vec<f32> = pass.log_std.flatten_all()?.to_vec1()?;
+        // Two sets of row gradients. Set 0, per row and action dimension: d log N / d mean =
+        // z / σ and d log N / d log σ = z^2 - 1, weighted by each objective's d loss / d lp of
+        // the row's sample. Set 1, the entropy bonus -c mean_rows sum_dims (log σ + const):
+        // -c / rows on every d / d log σ, weight 1 for the bonus and 0 for the objectives.
+        let k = d_lp.len() + 1;
+        let mut d_mean = vec![0.0f32; 2 * rows * 2];
+        let mut d_log_std = vec![0.0f32; 2 * rows * 2];
+        for i in 0..rows * 2 {
+            let inv_sigma = (-log_std[i]).exp();
+            let z = (actions[i] - mean[i]) * inv_sigma;
+            d_mean[i] = z * inv_sigma;
+            d_log_std[i] = z * z - 1.0;
+            d_log_std[rows * 2 + i] = -(self.cfg.entropy_coef / rows as f64) as f32;
+        }
+        let mut weights = vec![0.0f32; k * 2 * b];
+        for (o, w) in d_lp.iter().enumerate() {
+            weights[o * 2 * b..o * 2 * b + b].copy_from_slice(w);
+        }
+        weights[(k - 1) * 2 * b + b..].fill(1.0);
+        let shape = (2, rows, 2);
+        let grads = self.actor.backward(
+            pass,
+            &Tensor::from_vec(d_mean, shape, &self.dev)?,
+            &Tensor::from_vec(d_log_std, shape, &self.dev)?,
+            &Tensor::from_vec(weights, (k, 2, b), &self.dev)?,
+        )?;
+        let mut flat = vec![Vec::new(); k];
+        for ((name, _), (suffix, g)) in self.actor_vars.iter().zip(&grads) {
+            assert_eq!(
+                name.strip_prefix("actor."),
+                Some(*suffix),
+                "actor parameter order"
+            );
+            let g: Vec<f32> = g.flatten_all()?.to_vec1()?;
+            let per = g.len() / k;
+            for (o, f) in flat.iter_mut().enumerate() {
+                f.extend_from_slice(&g[o * per..(o + 1) * per]);
+            }
+        }
+        let entropy_bonus = flat.pop().expect("k >= 1");
+        let mean_log_std = log_std.iter().map(|&x| x as f64).sum::<f64>() / log_std.len() as f64;
+        let entropy = 2.0 * (0.5 + 0.5 * (2.0 * std::f64::consts::PI).ln() + mean_log_std);
+        Ok(ActorGradients {
+            objectives: flat,
+            entropy_bonus,
+            entropy,
+            mean_log_std,
         })
     }
 
@@ -427,21 +526,27 @@ impl Learner {
                     .flat_map(|&s| actions[s * n..(s + 1) * n].concat())
                     .collect();
                 let a = Tensor::from_slice(&a_flat, (b * n, 2), &self.dev)?;
-                let lp_old = Tensor::from_slice(&gather(logp_old, 1), (b, 1), &self.dev)?;
-                let adv_t = Tensor::from_slice(&gather(adv, n * 3), (b, n, 3), &self.dev)?;
                 let ret_t = Tensor::from_slice(&gather(returns, n * 3), (b, n, 3), &self.dev)?;
 
-                let (mean, log_std) = self.actor.forward(&o)?;
-                let lp_new = gaussian_log_prob(&a, &mean, &log_std)?
+                let pass = self.actor.forward_pass(&o)?;
+                let lp_new: Vec<f32> = gaussian_log_prob(&a, &pass.mean, &pass.log_std)?
                     .reshape((b, n))?
-                    .sum_keepdim(1)?;
-                let mut grads = Vec::with_capacity(3);
+                    .sum(1)?
+                    .to_vec1()?;
+                let adv_b = gather(adv, n * 3);
+                let mut d_lp = Vec::with_capacity(3);
                 for k in 0..3 {
-                    let adv_k = adv_t.narrow(2, k, 1)?.squeeze(2)?;
-                    let loss = clipped_surrogate(&lp_new, &lp_old, &adv_k, self.cfg.clip)?;
-                    stats.loss[k] += loss.to_scalar::<f32>()? as f64;
-                    grads.push(flatten(&loss.backward()?, &self.actor_vars)?);
+                    let adv_k: Vec<f32> = adv_b.iter().skip(k).step_by(3).copied().collect();
+                    let (loss, g) = clipped_surrogate_grad(
+                        &lp_new,
+                        &gather(logp_old, 1),
+                        &adv_k,
+                        self.cfg.clip as f32,
+                    );
+                    stats.loss[k] += loss;
+                    d_lp.push(g);
                 }
+                let grads = self.actor_gradients(&pass, &a_flat, &d_lp, b, n)?;
                 let surgery = if self.cfg.pcgrad {
                     let order: Vec<Vec<usize>> = (0..3)
                         .map(|i| {
@@ -452,19 +557,14 @@ impl Learner {
                                 .collect()
                         })
                         .collect();
-                    pcgrad(&grads, &order)
+                    pcgrad(&grads.objectives, &order)
                 } else {
-                    average(&grads)
+                    average(&grads.objectives)
                 };
-                let entropy = gaussian_entropy(&log_std)?.mean_all()?;
-                let ent_grad = flatten(
-                    &entropy.affine(-self.cfg.entropy_coef, 0.0)?.backward()?,
-                    &self.actor_vars,
-                )?;
                 let mut g: Vec<f32> = surgery
                     .combined
                     .iter()
-                    .zip(&ent_grad)
+                    .zip(&grads.entropy_bonus)
                     .map(|(a, b)| a + b)
                     .collect();
                 clip_norm(&mut g, self.cfg.max_grad_norm);
@@ -478,8 +578,8 @@ impl Learner {
                 adam_step(&mut self.opt_critic, &self.critic_vars, &gc)?;
 
                 stats.value_loss += value_loss.to_scalar::<f32>()? as f64;
-                stats.entropy += entropy.to_scalar::<f32>()? as f64;
-                stats.mean_log_std += log_std.mean_all()?.to_scalar::<f32>()? as f64;
+                stats.entropy += grads.entropy;
+                stats.mean_log_std += grads.mean_log_std;
                 for p in 0..3 {
                     stats.cosine[p] += surgery.cosines[p] as f64;
                     stats.conflict[p] += surgery.conflicts[p] as u32 as f64;
@@ -527,6 +627,75 @@ mod tests {
             .unwrap();
         let var = w.iter().map(|x| (*x as f64).powi(2)).sum::<f64>() / w.len() as f64;
         assert!((var - 0.25).abs() < 0.03, "{var}");
+    }
+
+    #[test]
+    fn the_batched_actor_gradients_equal_autograd_of_each_loss() {
+        use super::super::nets::{gaussian_entropy, gaussian_log_prob};
+        use super::super::ppo::clipped_surrogate;
+        let (b, n) = (5, 3);
+        let learner = Learner::new(n, 8, TrainConfig::default(), 2).unwrap();
+        let mut rng = Rng::new(9);
+        let mut noise = |len: usize, s: f64| -> Vec<f32> {
+            (0..len).map(|_| (s * rng.normal()) as f32).collect()
+        };
+        let obs = noise(b * n * 8, 1.0);
+        let actions = noise(b * n * 2, 1.5);
+        let adv = noise(b * n * 3, 1.0);
+        let dev = Device::Cpu;
+        let o = Tensor::from_slice(&obs, (b * n, 8), &dev).unwrap();
+        let a = Tensor::from_slice(&actions, (b * n, 2), &dev).unwrap();
+        let pass = learner.actor.forward_pass(&o).unwrap();
+        let lp = gaussian_log_prob(&a, &pass.mean, &pass.log_std)
+            .unwrap()
+            .reshape((b, n))
+            .unwrap()
+            .sum_keepdim(1)
+            .unwrap();
+        // Old log-probabilities off by up to +-0.5, so some ratios leave the clip range.
+        let lp_now: Vec<f32> = lp.flatten_all().unwrap().to_vec1().unwrap();
+        let lp_old: Vec<f32> = lp_now
+            .iter()
+            .zip(noise(b, 0.3))
+            .map(|(l, e)| l + e)
+            .collect();
+        let lp_old_t = Tensor::from_slice(&lp_old, (b, 1), &dev).unwrap();
+        let adv_t = Tensor::from_slice(&adv, (b, n, 3), &dev).unwrap();
+        let d_lp: Vec<Vec<f32>> = (0..3)
+            .map(|k| {
+                let adv_k: Vec<f32> = adv.iter().skip(k).step_by(3).copied().collect();
+                clipped_surrogate_grad(&lp_now, &lp_old, &adv_k, 0.2).1
+            })
+            .collect();
+        let got = learner
+            .actor_gradients(&pass, &actions, &d_lp, b, n)
+            .unwrap();
+        // The reference: candle's autograd through each loss, as the update once did it.
+        let mut want = Vec::new();
+        for k in 0..3 {
+            let adv_k = adv_t.narrow(2, k, 1).unwrap().squeeze(2).unwrap();
+            let loss = clipped_surrogate(&lp, &lp_old_t, &adv_k, 0.2).unwrap();
+            want.push(flatten(&loss.backward().unwrap(), &learner.actor_vars).unwrap());
+        }
+        let h = gaussian_entropy(&pass.log_std).unwrap().mean_all().unwrap();
+        want.push(
+            flatten(
+                &h.affine(-0.01, 0.0).unwrap().backward().unwrap(),
+                &learner.actor_vars,
+            )
+            .unwrap(),
+        );
+        let all = got.objectives.iter().chain([&got.entropy_bonus]);
+        for (k, (got, want)) in all.zip(&want).enumerate() {
+            let scale = want.iter().fold(0f32, |m, x| m.max(x.abs()));
+            assert!(scale > 0.0, "loss {k} has a gradient");
+            for (x, y) in got.iter().zip(want) {
+                assert!((x - y).abs() <= 1e-5 * scale, "loss {k}: {x} vs {y}");
+            }
+        }
+        assert!((got.entropy - h.to_scalar::<f32>().unwrap() as f64).abs() < 1e-5);
+        let mls = pass.log_std.mean_all().unwrap().to_scalar::<f32>().unwrap() as f64;
+        assert!((got.mean_log_std - mls).abs() < 1e-6);
     }
 
     fn small_cfg() -> TrainConfig {

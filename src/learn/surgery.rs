@@ -1,7 +1,7 @@
-//! PCGrad on candle gradients: one backward pass per objective into its own `GradStore`,
-//! flattened per variable in name order (a `VarMap` iterates a HashMap, so names fix the
-//! order), projected and averaged by [`super::pcgrad`], and written back into a `GradStore` the
-//! optimiser can step with.
+//! Flat views of candle parameters and gradients: a `GradStore` (the critic's backward pass,
+//! the autograd references of the actor's tests) flattened per variable in name order (a
+//! `VarMap` iterates a HashMap, so names fix the order), the vector PCGrad
+//! ([`super::pcgrad`]) and Adam work on, and its way back into the variables or a `GradStore`.
 
 use candle_core::backprop::GradStore;
 use candle_core::{Result, Tensor, Var};

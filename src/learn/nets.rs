@@ -6,6 +6,9 @@
 //! Critic (centralised): joint state [B, N*8] -> 256 -> 256 (tanh) -> three linear heads of N
 //! values each -> [B, 3, N] (progress, energy, smoothness).
 //! Parameters are named through `VarBuilder::pp("actor")` / `pp("critic")`.
+//! The actor's backward pass is also written out by hand ([`Actor::backward`], batched over
+//! several losses), so that the learner's four actor gradients share one pass; a test holds it
+//! against candle's autograd.
 
 use candle_core::{Result, Tensor};
 use candle_nn::{Linear, Module, VarBuilder, linear};
@@ -19,6 +22,17 @@ pub struct Actor {
     l2: Linear,
     head: Linear,
     action_dim: usize,
+}
+
+/// One actor forward pass with the activations its backward pass needs.
+pub struct ActorPass {
+    /// Observations [B, obs_dim] and the two hidden layers' tanh outputs [B, HIDDEN].
+    x: Tensor,
+    h1: Tensor,
+    h2: Tensor,
+    /// [B, action_dim] each.
+    pub mean: Tensor,
+    pub log_std: Tensor,
 }
 
 impl Actor {
@@ -36,20 +50,7 @@ impl Actor {
         let h = self.l2.forward(&self.l1.forward(obs)?.tanh()?)?.tanh()?;
         self.split_head(&self.head.forward(&h)?)
     }
-}
 
-/// One actor forward pass with the activations its backward pass needs.
-pub struct ActorPass {
-    /// Observations [B, obs_dim] and the two hidden layers' tanh outputs [B, HIDDEN].
-    x: Tensor,
-    h1: Tensor,
-    h2: Tensor,
-    /// [B, action_dim] each.
-    pub mean: Tensor,
-    pub log_std: Tensor,
-}
-
-impl Actor {
     /// [`Self::forward`], keeping the activations for [`Self::backward`].
     pub fn forward_pass(&self, obs: &Tensor) -> Result<ActorPass> {
         let h1 = self.l1.forward(obs)?.tanh()?;

@@ -533,16 +533,12 @@ impl Learner {
                     .reshape((b, n))?
                     .sum(1)?
                     .to_vec1()?;
-                let adv_b = gather(adv, n * 3);
+                let (lp_old, adv_b) = (gather(logp_old, 1), gather(adv, n * 3));
                 let mut d_lp = Vec::with_capacity(3);
                 for k in 0..3 {
                     let adv_k: Vec<f32> = adv_b.iter().skip(k).step_by(3).copied().collect();
-                    let (loss, g) = clipped_surrogate_grad(
-                        &lp_new,
-                        &gather(logp_old, 1),
-                        &adv_k,
-                        self.cfg.clip as f32,
-                    );
+                    let (loss, g) =
+                        clipped_surrogate_grad(&lp_new, &lp_old, &adv_k, self.cfg.clip as f32);
                     stats.loss[k] += loss;
                     d_lp.push(g);
                 }

@@ -64,7 +64,10 @@ fn cases() -> Vec<Case> {
             groups: [NX.div_ceil(256), NY, NE],
             ..grid_case("copy, workgroup 256", "o[c] = a[c];")
         },
-        grid_case("1 load, 2 stores", "let x = a[c]; o[c] = x; o2[c] = 2.0 * x;"),
+        grid_case(
+            "1 load, 2 stores",
+            "let x = a[c]; o[c] = x; o2[c] = 2.0 * x;",
+        ),
         grid_case(
             "5-point stencil: 5 loads, 1 store",
             &format!("{stencil} o[c] = a[c] + a[l] + a[r] + a[d] + a[u];"),
@@ -86,7 +89,9 @@ fn cases() -> Vec<Case> {
         ),
         grid_case(
             "16 gathers, only where i < 2",
-            &format!("if (i < 2u) {{ var s = 0.0; {sixteen_gathers} o[c] = s; }} else {{ o[c] = a[c]; }}"),
+            &format!(
+                "if (i < 2u) {{ var s = 0.0; {sixteen_gathers} o[c] = s; }} else {{ o[c] = a[c]; }}"
+            ),
         ),
         grid_case("vec4 copy, one per cell", "ov[c] = av[c];"),
         Case {
@@ -106,7 +111,10 @@ fn cases() -> Vec<Case> {
         ),
         grid_case(
             "40 dependent FMAs, unrolled",
-            &format!("var x = a[c]; {} o[c] = x;", "x = x * 0.999 + 0.001; ".repeat(40)),
+            &format!(
+                "var x = a[c]; {} o[c] = x;",
+                "x = x * 0.999 + 0.001; ".repeat(40)
+            ),
         ),
         column_case(
             "20 x 20 column transform, private array",
@@ -218,7 +226,10 @@ fn main() -> anyhow::Result<()> {
                 })
         })
         .collect();
-    println!("{:44} {:>12} {:>14}", "kernel (320,000 cells)", "ms/dispatch", "ns per cell");
+    println!(
+        "{:44} {:>12} {:>14}",
+        "kernel (320,000 cells)", "ms/dispatch", "ns per cell"
+    );
     for case in cases() {
         if !filters.is_empty() && !filters.iter().any(|f| case.name.contains(f.as_str())) {
             continue;

@@ -11,12 +11,20 @@ use fluxswarm_gpu::gpu::{AdapterChoice, GpuContext};
 
 static GPU_LOCK: Mutex<()> = Mutex::new(());
 
-/// A fresh device on the CPU adapter (any adapter if there is no CPU one), held exclusively.
+/// A fresh device, held exclusively: the CPU adapter (any adapter if there is no CPU one), or
+/// a real GPU only when `FLUXSWARM_TEST_ADAPTER=gpu` (`scripts/device-check` sets it, so that the
+/// kernels are checked against their twins on the GPU's own driver).
 pub fn gpu() -> (MutexGuard<'static, ()>, GpuContext) {
     let guard = GPU_LOCK.lock().unwrap_or_else(|e| e.into_inner());
-    let ctx = GpuContext::new(AdapterChoice::Cpu)
-        .or_else(|_| GpuContext::new(AdapterChoice::Auto))
-        .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
+    let ctx = match std::env::var("FLUXSWARM_TEST_ADAPTER").as_deref() {
+        Ok("gpu") => GpuContext::new(AdapterChoice::Gpu),
+        Ok("cpu") => GpuContext::new(AdapterChoice::Cpu),
+        Ok(other) if !other.is_empty() => {
+            panic!("FLUXSWARM_TEST_ADAPTER={other}: use gpu, cpu, or leave it unset")
+        }
+        _ => GpuContext::new(AdapterChoice::Cpu).or_else(|_| GpuContext::new(AdapterChoice::Auto)),
+    }
+    .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
     (guard, ctx)
 }
 

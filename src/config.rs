@@ -225,6 +225,36 @@ pub struct Solver {
     /// Where the control step runs (default: the adapter).
     #[serde(default)]
     pub backend: Backend,
+    /// How the kernels solve each y-mode's tridiagonal system along x (default: auto).
+    #[serde(default)]
+    pub pressure_sweep: PressureSweep,
+}
+
+/// The kernel for the tridiagonal solve of each y-mode along x (both exact, same factors).
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PressureSweep {
+    /// `scan` on a GPU, `sequential` on a software adapter.
+    #[default]
+    Auto,
+    /// `pressure_solve.wgsl`: one thread per (environment, mode) runs the Thomas sweeps, 2 nx
+    /// dependent steps. Fastest on lavapipe, where threads are few and barriers dear.
+    Sequential,
+    /// `pressure_scan.wgsl`: one workgroup of 256 threads per (environment, mode) runs each
+    /// sweep as a parallel scan of affine maps, at most 4 ceil(nx / 256) dependent steps per
+    /// thread plus 2 x 8 barrier steps. For GPUs, where a dependent step costs a memory latency.
+    Scan,
+}
+
+impl PressureSweep {
+    /// Whether the batch uses the scan kernel on an adapter that is (or is not) software.
+    pub fn uses_scan(self, software_adapter: bool) -> bool {
+        match self {
+            Self::Auto => !software_adapter,
+            Self::Sequential => false,
+            Self::Scan => true,
+        }
+    }
 }
 
 /// Where the fluid and swarm control step runs.

@@ -148,6 +148,31 @@ fn pressure_solve_matches_cpu() {
     );
 }
 
+/// The scan kernel (`solver.pressure_sweep = "scan"`) solves the same systems as the CPU
+/// twin's Thomas sweeps: fewer rows than threads (37: one row per thread, most threads empty),
+/// and three rows per thread with a partial last chunk (601 = 200 x 3 + 1).
+#[test]
+fn pressure_scan_matches_cpu_thomas() {
+    let (_lock, ctx) = common::gpu();
+    for (nx, ny, n_env) in [(NX, NY, E), (601, 5, 2), (1000, 20, 1)] {
+        let r = small_config(nx, ny, &["solver.pressure_sweep=scan"]);
+        let b = FluidBatch::new(&ctx, &r, n_env).unwrap();
+        assert_eq!(b.pressure_sweep(), "scan");
+        let rhs = Noise::new(17).vec(n_env * b.grid().n_cells(), 1e5);
+        b.write_all(FieldBinding::Modes, &rhs);
+        b.run_stages(&ctx, &[Stage::PressureSolve], 0, 1).unwrap();
+        let poisson = b.read_all(&ctx, FieldBinding::Poisson).unwrap();
+        let mut modes = rhs.clone();
+        cpu::pressure_solve(b.params(), &poisson, &mut modes);
+        assert_close(
+            &format!("scan-solved modes at {nx} x {ny}"),
+            &b.read_all(&ctx, FieldBinding::Modes).unwrap(),
+            &modes,
+            1e-5,
+        );
+    }
+}
+
 #[test]
 fn project_matches_cpu() {
     let (_lock, ctx) = common::gpu();
@@ -228,9 +253,27 @@ fn diagnostics_match_cpu_and_count_non_finite_values() {
 
 #[test]
 fn whole_control_step_matches_cpu() {
+    whole_control_step_matches_cpu_with("sequential");
+}
+
+#[test]
+fn whole_control_step_with_the_scan_sweep_matches_cpu() {
+    whole_control_step_matches_cpu_with("scan");
+}
+
+fn whole_control_step_matches_cpu_with(sweep: &str) {
     let (_lock, ctx) = common::gpu();
-    let r = small_config(NX, NY, &["time.substeps=5", "time.control_dt_s=0.00125"]);
+    let r = small_config(
+        NX,
+        NY,
+        &[
+            "time.substeps=5",
+            "time.control_dt_s=0.00125",
+            &format!("solver.pressure_sweep={sweep}"),
+        ],
+    );
     let mut b = FluidBatch::new(&ctx, &r, E).unwrap();
+    assert_eq!(b.pressure_sweep(), sweep);
     let (u, v, body, _) = randomise(&mut b, 23);
     let poisson = b.read_all(&ctx, FieldBinding::Poisson).unwrap();
     let mut reference = cpu::CpuBatch {

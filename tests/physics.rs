@@ -134,12 +134,30 @@ fn check_conservation(ctx: &GpuContext, b: &mut FluidBatch, steps: usize, label:
 
 #[test]
 fn triphasic_inlet_conserves_mass_through_every_cross_section() {
+    triphasic_conservation("sequential");
+}
+
+/// The same with the GPU's tridiagonal kernel (`pressure_scan`, four rows per thread here).
+#[test]
+fn triphasic_inlet_conserves_mass_with_the_scan_sweep() {
+    triphasic_conservation("scan");
+}
+
+fn triphasic_conservation(sweep: &str) {
     let (_lock, ctx) = common::gpu();
     // The paper's grid and waveform: 0.3 s covers the systolic ramps, the plateau, the
     // deceleration, the reversal and the return to forward flow.
-    let r = Config::load(None, &["swarm.count=0".into()]).unwrap();
+    let r = Config::load(
+        None,
+        &[
+            "swarm.count=0".into(),
+            format!("solver.pressure_sweep={sweep}"),
+        ],
+    )
+    .unwrap();
     let mut b = FluidBatch::new(&ctx, &r, 1).unwrap();
-    check_conservation(&ctx, &mut b, 60, "paper grid");
+    assert_eq!(b.pressure_sweep(), sweep);
+    check_conservation(&ctx, &mut b, 60, &format!("paper grid, {sweep} sweep"));
 }
 
 #[test]

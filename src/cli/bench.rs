@@ -224,8 +224,16 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             (format!("{name} (no per-stage split)"), name)
         }
     };
+    // The native backend always runs the sequential sweeps (the CPU twins').
+    let sweep = if c.solver.backend == Backend::Adapter
+        && c.solver.pressure_sweep.uses_scan(ctx.is_software())
+    {
+        "scan"
+    } else {
+        "sequential"
+    };
     println!(
-        "bench: {} x {} grid, {} substeps per control step, {:?} advection, {backend}",
+        "bench: {} x {} grid, {} substeps per control step, {:?} advection, {sweep} pressure sweep, {backend}",
         c.domain.nx, c.domain.ny, c.time.substeps, c.solver.advection
     );
     println!(

@@ -5,6 +5,7 @@ pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 pub const ADVECT: &str = include_str!("../../shaders/advect.wgsl");
 pub const PRESSURE_RHS: &str = include_str!("../../shaders/pressure_rhs.wgsl");
 pub const PRESSURE_SOLVE: &str = include_str!("../../shaders/pressure_solve.wgsl");
+pub const PRESSURE_SCAN: &str = include_str!("../../shaders/pressure_scan.wgsl");
 pub const PROJECT: &str = include_str!("../../shaders/project.wgsl");
 pub const DIAGNOSTICS: &str = include_str!("../../shaders/diagnostics.wgsl");
 pub const MEMBERS: &str = include_str!("../../shaders/members.wgsl");
@@ -17,6 +18,7 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
         ("advect.wgsl", with_common(ADVECT)),
         ("pressure_rhs.wgsl", with_common(PRESSURE_RHS)),
         ("pressure_solve.wgsl", with_common(PRESSURE_SOLVE)),
+        ("pressure_scan.wgsl", with_common(PRESSURE_SCAN)),
         ("project.wgsl", with_common(PROJECT)),
         ("diagnostics.wgsl", with_common(DIAGNOSTICS)),
         ("members.wgsl", with_common(MEMBERS)),

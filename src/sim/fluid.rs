@@ -25,8 +25,8 @@ use super::native::NativeBatch;
 use super::{EnvHealth, Grid, poisson::PoissonTables};
 use crate::config::{Advection, Backend, Backtrace, Resolved};
 use crate::gpu::kernels::{
-    Advect, Diagnostics, Dims, FieldBinding, FieldLayout, Members, PressureRhs, PressureSolve,
-    Project, Recorder, map_and_read, read_buffer,
+    Advect, Diagnostics, Dims, FieldBinding, FieldLayout, Members, PressureRhs, PressureScan,
+    PressureSolve, Project, Recorder, map_and_read, read_buffer,
 };
 use crate::gpu::params::{GpuMember, GpuMemberDiag, GpuParams, SubstepUniform};
 use crate::gpu::{GpuContext, GpuError};
@@ -116,6 +116,7 @@ struct Pipelines {
     advect: Advect,
     rhs: PressureRhs,
     solve: PressureSolve,
+    scan: PressureScan,
     project: Project,
     diagnostics: Diagnostics,
     members: Members,
@@ -152,6 +153,8 @@ pub struct FluidBatch {
     grid: Grid,
     params: GpuParams,
     scheme: Advection,
+    /// `pressure_scan` instead of `pressure_solve` (`solver.pressure_sweep`, resolved).
+    scan_sweep: bool,
     waveform: Waveform,
     n_env: usize,
     substeps: usize,
@@ -302,6 +305,7 @@ impl FluidBatch {
             advect: Advect::new(device, &layout),
             rhs: PressureRhs::new(device, &layout),
             solve: PressureSolve::new(device, &layout),
+            scan: PressureScan::new(device, &layout),
             project: Project::new(device, &layout),
             diagnostics: Diagnostics::new(device, &layout),
             members: Members::new(device, &layout),
@@ -316,6 +320,7 @@ impl FluidBatch {
             grid,
             params,
             scheme: config.solver.advection,
+            scan_sweep: config.solver.pressure_sweep.uses_scan(ctx.is_software()),
             waveform: resolved.waveform.clone(),
             n_env,
             substeps,
@@ -354,6 +359,15 @@ impl FluidBatch {
             });
         }
         Ok(batch)
+    }
+
+    /// The kernel of the tridiagonal solve: "scan" or "sequential" (`solver.pressure_sweep`).
+    pub fn pressure_sweep(&self) -> &'static str {
+        if self.scan_sweep {
+            "scan"
+        } else {
+            "sequential"
+        }
     }
 
     /// Whether the control step runs natively on the CPU (`solver.backend = "native"`).
@@ -996,6 +1010,7 @@ impl FluidBatch {
         match stage {
             Stage::Advect => p.advect.record(pass, b, o, d, self.scheme),
             Stage::PressureRhs => p.rhs.record(pass, b, o, d),
+            Stage::PressureSolve if self.scan_sweep => p.scan.record(pass, b, o, d),
             Stage::PressureSolve => p.solve.record(pass, b, o, d),
             Stage::Project => p.project.record(pass, b, o, d),
             Stage::Diagnostics => p.diagnostics.record(pass, b, o, d),

@@ -7,6 +7,7 @@ pub mod advect;
 pub mod diagnostics;
 pub mod members;
 pub mod pressure_rhs;
+pub mod pressure_scan;
 pub mod pressure_solve;
 pub mod project;
 
@@ -14,6 +15,7 @@ pub use advect::Advect;
 pub use diagnostics::Diagnostics;
 pub use members::Members;
 pub use pressure_rhs::PressureRhs;
+pub use pressure_scan::PressureScan;
 pub use pressure_solve::PressureSolve;
 pub use project::Project;
 

@@ -81,10 +81,10 @@ pub struct Learner {
     normalizer: Option<ObsNormalizer>,
     rng: Rng,
     dev: Device,
-    /// A rayon pool of one thread that runs the networks' tensor work (`act`, `values`, the
-    /// update). candle splits even these small matrix products over rayon's threads (gemm),
-    /// and on two cores the hand-offs cost more than they save. The global pool stays free
-    /// for the native fluid step.
+    /// A rayon pool of [`learner_threads`] threads (default one) that runs the networks' tensor
+    /// work (`act`, `values`, the update). candle splits even these small matrix products over
+    /// rayon's threads (gemm), and on two cores the hand-offs cost more than they save. The
+    /// global pool stays free for the native fluid step.
     pool: std::sync::Arc<rayon::ThreadPool>,
 }
 
@@ -135,6 +135,22 @@ fn clip_norm(g: &mut [f32], max: f64) {
     }
 }
 
+/// Threads of the learner's own pool: `FLUXSWARM_LEARNER_THREADS`, default 1. On the 2-core
+/// development VM one thread was fastest (candle split even small products, and the
+/// hand-offs cost more than they saved; README, *The learner*); many-core machines may gain from
+/// more at large batches.
+pub fn learner_threads() -> anyhow::Result<usize> {
+    match std::env::var("FLUXSWARM_LEARNER_THREADS") {
+        Err(_) => Ok(1),
+        Ok(v) => match v.trim().parse::<usize>() {
+            Ok(n) if n >= 1 => Ok(n),
+            _ => anyhow::bail!(
+                "FLUXSWARM_LEARNER_THREADS={v}: give a positive number of threads, or unset it for 1"
+            ),
+        },
+    }
+}
+
 impl Learner {
     pub fn new(agents: usize, obs_dim: usize, cfg: TrainConfig, seed: u64) -> anyhow::Result<Self> {
         let dev = Device::Cpu;
@@ -165,7 +181,11 @@ impl Learner {
             normalizer,
             rng,
             dev,
-            pool: std::sync::Arc::new(rayon::ThreadPoolBuilder::new().num_threads(1).build()?),
+            pool: std::sync::Arc::new(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(learner_threads()?)
+                    .build()?,
+            ),
         })
     }
 

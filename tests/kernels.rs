@@ -129,28 +129,35 @@ fn pressure_rhs_matches_cpu() {
     );
 }
 
-#[test]
-fn pressure_solve_matches_cpu() {
-    let (_lock, ctx) = common::gpu();
-    let b = batch(&ctx, "maccormack");
-    let g = *b.grid();
-    let rhs = Noise::new(13).vec(E * g.n_cells(), 1e5);
+/// Runs the batch's tridiagonal kernel on random right-hand sides and compares it with the
+/// CPU twin's Thomas sweeps.
+fn solve_matches_thomas(ctx: &GpuContext, b: &FluidBatch, n_env: usize, seed: u64, label: &str) {
+    let rhs = Noise::new(seed).vec(n_env * b.grid().n_cells(), 1e5);
     b.write_all(FieldBinding::Modes, &rhs);
-    b.run_stages(&ctx, &[Stage::PressureSolve], 0, 1).unwrap();
-    let poisson = b.read_all(&ctx, FieldBinding::Poisson).unwrap();
+    b.run_stages(ctx, &[Stage::PressureSolve], 0, 1).unwrap();
+    let poisson = b.read_all(ctx, FieldBinding::Poisson).unwrap();
     let mut modes = rhs.clone();
     cpu::pressure_solve(b.params(), &poisson, &mut modes);
     assert_close(
-        "solved modes",
-        &b.read_all(&ctx, FieldBinding::Modes).unwrap(),
+        label,
+        &b.read_all(ctx, FieldBinding::Modes).unwrap(),
         &modes,
         1e-5,
     );
 }
 
+#[test]
+fn pressure_solve_matches_cpu() {
+    let (_lock, ctx) = common::gpu();
+    let r = small_config(NX, NY, &["solver.pressure_sweep=sequential"]);
+    let b = FluidBatch::new(&ctx, &r, E).unwrap();
+    assert_eq!(b.pressure_sweep(), "sequential");
+    solve_matches_thomas(&ctx, &b, E, 13, "solved modes");
+}
+
 /// The scan kernel (`solver.pressure_sweep = "scan"`) solves the same systems as the CPU
 /// twin's Thomas sweeps: fewer rows than threads (37: one row per thread, most threads empty),
-/// and three rows per thread with a partial last chunk (601 = 200 x 3 + 1).
+/// three rows per thread with a partial last chunk (601 = 200 x 3 + 1), and the paper's size.
 #[test]
 fn pressure_scan_matches_cpu_thomas() {
     let (_lock, ctx) = common::gpu();
@@ -158,17 +165,12 @@ fn pressure_scan_matches_cpu_thomas() {
         let r = small_config(nx, ny, &["solver.pressure_sweep=scan"]);
         let b = FluidBatch::new(&ctx, &r, n_env).unwrap();
         assert_eq!(b.pressure_sweep(), "scan");
-        let rhs = Noise::new(17).vec(n_env * b.grid().n_cells(), 1e5);
-        b.write_all(FieldBinding::Modes, &rhs);
-        b.run_stages(&ctx, &[Stage::PressureSolve], 0, 1).unwrap();
-        let poisson = b.read_all(&ctx, FieldBinding::Poisson).unwrap();
-        let mut modes = rhs.clone();
-        cpu::pressure_solve(b.params(), &poisson, &mut modes);
-        assert_close(
+        solve_matches_thomas(
+            &ctx,
+            &b,
+            n_env,
+            17,
             &format!("scan-solved modes at {nx} x {ny}"),
-            &b.read_all(&ctx, FieldBinding::Modes).unwrap(),
-            &modes,
-            1e-5,
         );
     }
 }

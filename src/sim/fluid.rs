@@ -7,6 +7,7 @@
 //!   advect [+ correct]  u* = A(w) along the velocity u^n, boundary values, Brinkman blend
 //!   pressure_rhs        phat = Q^T (rho/dt div u*)          (y-cosine modes per column)
 //!   pressure_solve      (Lx + lambda_k) p_k = phat_k         (Thomas along x per mode: exact)
+//!    or pressure_scan   the same systems as two parallel scans (`solver.pressure_sweep`)
 //!   pressure_back       p = Q p_k                            (per column)
 //!   project             u = u* - dt/rho grad p
 //! Buffers ([E] outermost): u[2] [E][ny][nx+1] and v[2] [E][ny+1][nx] (ping-pong), u_hat/v_hat

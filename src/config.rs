@@ -261,13 +261,25 @@ impl PressureSweep {
 #[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum Backend {
-    /// The WGSL kernels on the wgpu adapter (a GPU, or lavapipe on the CPU).
+    /// The WGSL kernels on a real GPU (after a start-up self-check against the CPU step),
+    /// the CPU backend otherwise (SPEC section 8).
     #[default]
+    Auto,
+    /// The WGSL kernels on the wgpu adapter, whatever it is (a GPU, or lavapipe on the CPU).
     Adapter,
-    /// `sim::native`: the same control step in plain Rust on the CPU cores (rayon, one
-    /// environment per task); equal to the CPU twins bit for bit. On a machine without a GPU
-    /// it is about 4x faster than lavapipe (README, Performance).
+    /// `sim::cpu`: the control step in plain Rust on the CPU cores (rayon, one environment
+    /// per task); needs no adapter.
     Native,
+}
+
+impl std::fmt::Display for Backend {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Auto => "auto",
+            Self::Adapter => "adapter",
+            Self::Native => "native",
+        })
+    }
 }
 
 /// A validated configuration with its waveform resolved.

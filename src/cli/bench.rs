@@ -12,12 +12,10 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use fluxswarm_gpu::config::Backend;
-use fluxswarm_gpu::gpu::GpuContext;
 use fluxswarm_gpu::output::run_dir;
-use fluxswarm_gpu::sim::EnvHealth;
-use fluxswarm_gpu::sim::native::NativeBatch;
-use fluxswarm_gpu::sim::{FluidBatch, Stage, fluid::PRESSURE_ITERATIONS_PER_SUBSTEP};
+use fluxswarm_gpu::sim::{
+    CpuBatch, EnvHealth, FlowBatch, GpuBatch, Stage, fluid::PRESSURE_ITERATIONS_PER_SUBSTEP,
+};
 
 use super::common::ConfigArgs;
 
@@ -34,9 +32,9 @@ pub struct BenchArgs {
     /// Output directory (default runs/bench-<YYYYmmdd-HHMMSS>).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Also time the native yardstick (`sim::native`: the same control step in plain Rust on
-    /// the CPU, one environment per thread) at every batch size, after the adapter's runs,
-    /// and write `native.csv` with the ratio.
+    /// Also time the CPU backend (`sim::cpu`: the control step in plain Rust, one environment
+    /// per rayon task) at every batch size, after the main runs, and write `native.csv` with
+    /// the ratio.
     #[arg(long)]
     pub native: bool,
 }
@@ -102,84 +100,79 @@ fn timed_steps(
 }
 
 fn bench_one(
-    ctx: &GpuContext,
     args: &BenchArgs,
     resolved: &fluxswarm_gpu::config::Resolved,
     envs: usize,
-) -> anyhow::Result<Row> {
-    let mut batch = FluidBatch::new(ctx, resolved, envs)?;
-    batch.step(ctx)?; // warm-up: pipeline compilation, first touches
-    let (step_s, health) = timed_steps(args.seconds, || Ok(batch.step(ctx)?))?;
+) -> anyhow::Result<(Row, String)> {
+    let opened = args.common.open_batch(resolved, envs)?;
+    let runs_on = opened.batch.describe();
+    let mut batch = opened.batch;
+    batch.step()?; // warm-up: pipeline compilation, first touches
+    let (step_s, health) = timed_steps(args.seconds, || Ok(batch.step()?))?;
     let residual = health
         .iter()
         .map(|h| h.residual() as f64)
         .fold(0.0, f64::max);
     let substeps = batch.substeps();
     let g = *batch.grid();
-    if batch.is_native() {
-        // The stages and kernels below are the adapter's; the native step has no split.
-        return Ok(Row {
-            envs,
-            env_steps_per_s: envs as f64 / step_s,
-            cell_updates_per_s: (envs * g.n_cells() * substeps) as f64 / step_s,
-            dispatches: 0,
-            fluid_s: 0.0,
-            pressure_s: 0.0,
-            swarm_s: 0.0,
-            readback_s: 0.0,
-            step_s,
-            residual,
-            kernels: Vec::new(),
-        });
+    let mut row = Row {
+        envs,
+        env_steps_per_s: envs as f64 / step_s,
+        cell_updates_per_s: (envs * g.n_cells() * substeps) as f64 / step_s,
+        dispatches: 0,
+        fluid_s: 0.0,
+        pressure_s: 0.0,
+        swarm_s: 0.0,
+        readback_s: 0.0,
+        step_s,
+        residual,
+        kernels: Vec::new(),
+    };
+    // The time split by elimination and the kernel timestamps are the WGSL path's; the CPU
+    // backend has no dispatches to split.
+    if let Some(gpu) = batch.as_gpu_mut() {
+        split_times(gpu, &mut row)?;
     }
+    Ok((row, runs_on))
+}
+
+/// The time split by elimination (advection, pressure, members, read-back) and the kernels'
+/// timestamps of the WGSL path.
+fn split_times(batch: &mut GpuBatch, row: &mut Row) -> anyhow::Result<()> {
+    let substeps = batch.substeps();
     let reps = 3;
-    let fluid_s = time_median(reps, || {
-        Ok(batch.run_stages(ctx, &[Stage::Advect], 0, substeps)?)
+    row.fluid_s = time_median(reps, || {
+        Ok(batch.run_stages(&[Stage::Advect], 0, substeps)?)
     })?;
-    let pressure_s = time_median(reps, || {
+    row.pressure_s = time_median(reps, || {
         Ok(batch.run_stages(
-            ctx,
             &[Stage::PressureRhs, Stage::PressureSolve, Stage::Project],
             0,
             substeps,
         )?)
     })?;
-    let swarm_s = if batch.n_members() > 0 {
+    row.swarm_s = if batch.n_members() > 0 {
         time_median(reps, || {
-            Ok(batch.run_stages(ctx, &[Stage::PaintBodies, Stage::MoveMembers], 0, substeps)?)
+            Ok(batch.run_stages(&[Stage::PaintBodies, Stage::MoveMembers], 0, substeps)?)
         })?
     } else {
         0.0
     };
-    let readback_s = time_median(reps, || {
-        batch.health(ctx)?;
+    row.readback_s = time_median(reps, || {
+        batch.health()?;
         Ok(())
     })?;
-    let kernels = kernel_times(ctx, &mut batch)?;
-    Ok(Row {
-        envs,
-        env_steps_per_s: envs as f64 / step_s,
-        cell_updates_per_s: (envs * g.n_cells() * substeps) as f64 / step_s,
-        dispatches: batch.dispatches_per_substep(),
-        fluid_s,
-        pressure_s,
-        swarm_s,
-        readback_s,
-        step_s,
-        residual,
-        kernels,
-    })
+    row.kernels = kernel_times(batch)?;
+    row.dispatches = batch.dispatches_per_substep();
+    Ok(())
 }
 
 /// Per-kernel GPU times of one control step (median of three timestamped steps) with each
 /// kernel's dispatch count and bytes per control step; empty without timestamp support.
-fn kernel_times(
-    ctx: &GpuContext,
-    batch: &mut FluidBatch,
-) -> anyhow::Result<Vec<(String, u32, f64, u64)>> {
+fn kernel_times(batch: &mut GpuBatch) -> anyhow::Result<Vec<(String, u32, f64, u64)>> {
     let mut runs = Vec::new();
     for _ in 0..3 {
-        match batch.profile_step(ctx)? {
+        match batch.profile_step()? {
             Some(t) => runs.push(t),
             None => return Ok(Vec::new()),
         }
@@ -211,30 +204,10 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             .unwrap_or_else(|| run_dir::default_dir("bench")),
         &[],
     )?;
-    let ctx = args.common.open_gpu()?;
-    let adapter = ctx.describe();
     let c = &resolved.config;
-    let (backend, adapter) = match c.solver.backend {
-        Backend::Adapter => (format!("adapter {adapter}"), adapter),
-        Backend::Native => {
-            let name = format!(
-                "native CPU backend, {} threads",
-                rayon::current_num_threads()
-            );
-            (format!("{name} (no per-stage split)"), name)
-        }
-    };
-    // The native backend always runs the sequential sweeps (the CPU twins').
-    let sweep = if c.solver.backend == Backend::Adapter
-        && c.solver.pressure_sweep.uses_scan(ctx.is_software())
-    {
-        "scan"
-    } else {
-        "sequential"
-    };
     println!(
-        "bench: {} x {} grid, {} substeps per control step, {:?} advection, {sweep} pressure sweep, {backend}",
-        c.domain.nx, c.domain.ny, c.time.substeps, c.solver.advection
+        "bench: {} x {} grid, {} substeps per control step, {:?} advection, solver.backend = {}",
+        c.domain.nx, c.domain.ny, c.time.substeps, c.solver.advection, c.solver.backend
     );
     println!(
         "{:>5} {:>14} {:>12} {:>10} {:>9} {:>10} {:>11} {:>11} {:>11} {:>11} {:>11}",
@@ -256,8 +229,10 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         "envs,env_steps_per_s,cell_updates_per_s,dispatches_per_substep,pressure_iters_per_substep,fluid_s,pressure_s,swarm_s,readback_s,adapter"
     )?;
     let mut rows = Vec::new();
+    let mut adapter = String::new();
     for &envs in &args.envs {
-        let r = bench_one(&ctx, &args, &resolved, envs)?;
+        let (r, runs_on) = bench_one(&args, &resolved, envs)?;
+        adapter = runs_on;
         println!(
             "{:>5} {:>14.2} {:>12.1} {:>10} {:>9} {:>10.2e} {:>11.4} {:>11.4} {:>11.4} {:>11.4} {:>11.4}",
             r.envs,
@@ -289,39 +264,32 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         csv.flush()?;
         rows.push(r);
     }
-    if c.solver.backend == Backend::Adapter {
+    if rows.iter().any(|r| r.dispatches > 0) {
         write_kernel_table(&out, &rows, &adapter)?;
     }
     if args.native {
-        write_native_table(&ctx, &args, &resolved, &out, &rows, &adapter)?;
+        write_native_table(&args, &resolved, &out, &rows, &adapter)?;
     }
     println!("{}", out.display());
     Ok(())
 }
 
-/// Median control-step time of the native yardstick with `envs` environments, started from
-/// the same state as the adapter's batch (developed Poiseuille flow, members at rest).
+/// Median control-step time of the CPU backend with `envs` environments, from the same
+/// state as the main runs (developed Poiseuille flow, members at rest).
 fn native_step_s(
-    ctx: &GpuContext,
     args: &BenchArgs,
     resolved: &fluxswarm_gpu::config::Resolved,
     envs: usize,
 ) -> anyhow::Result<f64> {
-    let start = FluidBatch::new(ctx, resolved, envs)?.to_cpu(ctx)?;
-    let mut batch = NativeBatch::new(
-        &start,
-        resolved.waveform.clone(),
-        resolved.config.time.control_dt_s,
-    );
-    batch.step(); // warm-up: first touches of the scratch
-    Ok(timed_steps(args.seconds, || Ok(batch.step()))?.0)
+    let mut batch = CpuBatch::new(resolved, envs)?;
+    batch.step()?; // warm-up: first touches of the scratch
+    Ok(timed_steps(args.seconds, || Ok(batch.step()?))?.0)
 }
 
 /// Times the native yardstick at every batch size, prints it beside the adapter's rate and
 /// writes `native.csv`: envs,native_env_steps_per_s,adapter_env_steps_per_s,native_over_adapter,
 /// threads,adapter.
 fn write_native_table(
-    ctx: &GpuContext,
     args: &BenchArgs,
     resolved: &fluxswarm_gpu::config::Resolved,
     out: &std::path::Path,
@@ -330,7 +298,7 @@ fn write_native_table(
 ) -> anyhow::Result<()> {
     let threads = rayon::current_num_threads();
     println!(
-        "\nnative yardstick (plain Rust, same control step as the CPU twins bit for bit, {threads} threads, one environment per task)"
+        "\nCPU backend (sim::cpu, {threads} threads, one environment per task) beside the runs above"
     );
     println!(
         "{:>5} {:>20} {:>21} {:>14}",
@@ -342,7 +310,7 @@ fn write_native_table(
         "envs,native_env_steps_per_s,adapter_env_steps_per_s,native_over_adapter,threads,adapter"
     )?;
     for r in rows {
-        let native = r.envs as f64 / native_step_s(ctx, args, resolved, r.envs)?;
+        let native = r.envs as f64 / native_step_s(args, resolved, r.envs)?;
         let ratio = native / r.env_steps_per_s;
         println!(
             "{:>5} {:>20.2} {:>21.2} {:>14.2}",

@@ -2,10 +2,10 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use clap::Args;
-use fluxswarm_gpu::config::{Backend, Config, Resolved};
-use fluxswarm_gpu::gpu::{AdapterChoice, GpuContext, probe};
+use fluxswarm_gpu::config::{Config, Resolved};
+use fluxswarm_gpu::gpu::AdapterChoice;
+use fluxswarm_gpu::sim::{Opened, open};
 
 #[derive(Debug, Args, Clone)]
 pub struct ConfigArgs {
@@ -15,7 +15,8 @@ pub struct ConfigArgs {
     /// Override one key, e.g. `--set domain.nx=500` (repeatable).
     #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
     pub sets: Vec<String>,
-    /// Adapter: a real GPU if present (auto), a GPU only, or the software adapter (cpu).
+    /// Adapter for the WGSL kernels: a real GPU if present (auto), a GPU only, or the software
+    /// adapter (cpu; with `solver.backend = "auto"` this runs the kernels on it).
     #[arg(long, value_enum, default_value_t = AdapterChoice::Auto)]
     pub adapter: AdapterChoice,
 }
@@ -30,26 +31,10 @@ pub fn write_gif(out: &std::path::Path, prefix: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// What runs the control step, for run headers: the adapter, or the native backend (with
-/// the adapter that only holds its buffers).
-pub fn runs_on(ctx: &GpuContext, resolved: &Resolved) -> String {
-    match resolved.config.solver.backend {
-        Backend::Adapter => ctx.describe(),
-        Backend::Native => format!(
-            "native CPU backend, {} threads (buffers on {})",
-            rayon::current_num_threads(),
-            ctx.describe()
-        ),
-    }
-}
-
-/// On a software adapter with the adapter backend, says that the native backend is faster.
-pub fn suggest_native(ctx: &GpuContext, resolved: &Resolved) {
-    if ctx.is_software() && resolved.config.solver.backend == Backend::Adapter {
-        log::info!(
-            "no GPU: `--set solver.backend=native` runs the same control step about 4x faster on these CPU cores (README, Performance)"
-        );
-    }
+/// What runs the control step and why, for the `config.toml` header (`report` reads the
+/// text after "adapter").
+pub fn runs_on(opened: &Opened) -> String {
+    format!("{}; {}", opened.batch.describe(), opened.why)
 }
 
 impl ConfigArgs {
@@ -58,13 +43,14 @@ impl ConfigArgs {
         Ok(Config::load(self.config.as_deref(), &self.sets)?)
     }
 
-    /// Opens the adapter, prints which one runs, and warns about a loop-capping driver.
-    pub fn open_gpu(&self) -> anyhow::Result<GpuContext> {
-        let ctx = GpuContext::new(self.adapter)?;
-        log::info!("{}", ctx.banner());
-        if let Some(warning) = probe::check_loop_cap(&ctx).context("driver self-check")? {
-            log::warn!("{warning}");
+    /// Opens a batch of `n_env` environments on the backend `solver.backend` picks, and says
+    /// which runs and why (and any warning, e.g. a failed GPU self-check).
+    pub fn open_batch(&self, resolved: &Resolved, n_env: usize) -> anyhow::Result<Opened> {
+        let opened = open(resolved, n_env, self.adapter)?;
+        log::info!("{}", opened.header());
+        for w in &opened.warnings {
+            log::warn!("{w}");
         }
-        Ok(ctx)
+        Ok(opened)
     }
 }

@@ -1,5 +1,6 @@
-//! `fluxswarm-gpu info`: adapters, the chosen one, its limits, the driver self-check and the
-//! largest batch at the configured grid.
+//! `fluxswarm-gpu info`: which backend `solver.backend` runs and why (SPEC section 8), the
+//! adapters, the chosen one, its limits, the driver self-check and the largest batch at the
+//! configured grid. Works with no adapter at all (it says so).
 
 use clap::Args;
 use fluxswarm_gpu::gpu::{GpuContext, context, probe};
@@ -20,7 +21,22 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     for a in &adapters {
         println!("  - {}", context::describe(&a.get_info()));
     }
-    let ctx = GpuContext::new(args.common.adapter)?;
+    match fluxswarm_gpu::sim::open(&resolved, 1, args.common.adapter) {
+        Ok(opened) => {
+            println!("{}", opened.header());
+            for w in &opened.warnings {
+                println!("  warning: {w}");
+            }
+        }
+        Err(e) => println!("control step: cannot open a batch: {e}"),
+    }
+    let ctx = match GpuContext::new(args.common.adapter) {
+        Ok(ctx) => ctx,
+        Err(e) => {
+            println!("no adapter for the WGSL kernels: {e}");
+            return Ok(());
+        }
+    };
     println!("chosen ({:?}): {}", args.common.adapter, ctx.banner());
     let l = &ctx.limits;
     println!("limits:");

@@ -137,7 +137,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
             &[]
         },
     )?;
-    let ctx = args.common.open_gpu()?;
+    let opened = args.common.open_batch(&resolved, args.envs)?;
     // The header names the policy and protocol (`report` labels baselines with it); the rest
     // loads back with --config.
     let header = format!(
@@ -152,11 +152,11 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
         args.seed,
         args.envs,
         args.episodes,
-        super::common::runs_on(&ctx, &resolved)
+        super::common::runs_on(&opened)
     );
     std::fs::write(out.join("config.toml"), header + &resolved.config.to_toml())
         .context("writing config.toml")?;
-    let mut env = SwarmEnv::new(&ctx, &resolved, args.envs, args.seed)?;
+    let mut env = SwarmEnv::new(opened.batch, &resolved, args.seed)?;
     let c = &resolved.config;
     let n = env.n_agents();
     let dt = c.time.control_dt_s;
@@ -244,7 +244,6 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
         |step: u32| args.frames_every > 0 && (step as u64).is_multiple_of(args.frames_every);
     if frame_due(0) {
         write_frame(
-            &ctx,
             &env,
             &out,
             0,
@@ -269,7 +268,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
         let inlet_after: Vec<f64> = (0..args.envs)
             .map(|e| env.batch().inlet_u_after(e, dt))
             .collect();
-        let step = env.step(&ctx, &actions)?;
+        let step = env.step(&actions)?;
         steps_total += args.envs as u64;
         for e in 0..args.envs {
             let (ms, fs) = (
@@ -290,7 +289,6 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
             )?;
             if e == 0 && frame_due(k) {
                 write_frame(
-                    &ctx,
                     &env,
                     &out,
                     step.episode[e],
@@ -328,7 +326,6 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
                     )?;
                     if e == 0 && frame_due(0) {
                         write_frame(
-                            &ctx,
                             &env,
                             &out,
                             next,
@@ -368,7 +365,6 @@ fn initial_members(env: &SwarmEnv, e: usize) -> Vec<GpuMember> {
 
 #[allow(clippy::too_many_arguments)]
 fn write_frame(
-    ctx: &fluxswarm_gpu::gpu::GpuContext,
     env: &SwarmEnv,
     out: &std::path::Path,
     episode: u64,
@@ -379,7 +375,7 @@ fn write_frame(
     resolved: &fluxswarm_gpu::config::Resolved,
 ) -> anyhow::Result<()> {
     let d = &resolved.config.domain;
-    let fields = env.batch().fields(ctx, 0)?;
+    let fields = env.batch().fields(0)?;
     let marks: Vec<MemberMark> = ms
         .iter()
         .zip(fs)

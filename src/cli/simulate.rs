@@ -8,10 +8,9 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use clap::Args;
 use fluxswarm_gpu::config::Resolved;
-use fluxswarm_gpu::gpu::GpuContext;
 use fluxswarm_gpu::output::frame::MemberMark;
 use fluxswarm_gpu::output::{frame, npy, run_dir};
-use fluxswarm_gpu::sim::{EnvHealth, FluidBatch, fluid::PRESSURE_ITERATIONS_PER_SUBSTEP};
+use fluxswarm_gpu::sim::{EnvHealth, FlowBatch, fluid::PRESSURE_ITERATIONS_PER_SUBSTEP};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::common::ConfigArgs;
@@ -87,8 +86,7 @@ pub fn run(mut args: SimulateArgs) -> anyhow::Result<()> {
     std::fs::write(out.join("config.toml"), resolved.config.to_toml())
         .context("writing config.toml")?;
 
-    let ctx = args.common.open_gpu()?;
-    let mut batch = FluidBatch::new(&ctx, &resolved, args.envs)?;
+    let mut batch = args.common.open_batch(&resolved, args.envs)?.batch;
     let steps = (args.seconds / resolved.config.time.control_dt_s)
         .round()
         .max(1.0) as u64;
@@ -102,8 +100,8 @@ pub fn run(mut args: SimulateArgs) -> anyhow::Result<()> {
         resolved.config.solver.advection,
     );
     let mut writer = Writer::new(&out, &args, &resolved)?;
-    let health = batch.health(&ctx)?;
-    writer.record(&ctx, &batch, 0, &health[args.env])?;
+    let health = batch.health()?;
+    writer.record(batch.as_ref(), 0, &health[args.env])?;
 
     let bar = ProgressBar::new(steps);
     bar.set_style(
@@ -112,8 +110,8 @@ pub fn run(mut args: SimulateArgs) -> anyhow::Result<()> {
     );
     let start = Instant::now();
     for step in 1..=steps {
-        let health = batch.step(&ctx)?;
-        writer.record(&ctx, &batch, step, &health[args.env])?;
+        let health = batch.step()?;
+        writer.record(batch.as_ref(), step, &health[args.env])?;
         for (e, h) in health.iter().enumerate() {
             if h.diverged() {
                 bar.abandon();
@@ -178,8 +176,7 @@ impl<'a> Writer<'a> {
 
     fn record(
         &mut self,
-        ctx: &GpuContext,
-        batch: &FluidBatch,
+        batch: &dyn FlowBatch,
         step: u64,
         h: &EnvHealth,
     ) -> anyhow::Result<()> {
@@ -207,7 +204,7 @@ impl<'a> Writer<'a> {
         if !frame_due && !fields_due {
             return Ok(());
         }
-        let fields = batch.fields(ctx, e)?;
+        let fields = batch.fields(e)?;
         let ux = fields.ux_cells();
         let (nx, ny) = (fields.nx, fields.ny);
         if frame_due {

@@ -17,7 +17,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use fluxswarm_gpu::checkpoint::{self, Archive, CheckpointError};
 use fluxswarm_gpu::config::{Config, Resolved};
-use fluxswarm_gpu::env::{GpuSwarmEnv, OBS_DIM, Outcome, SwarmEnv};
+use fluxswarm_gpu::env::{OBS_DIM, Outcome, SwarmEnv};
 use fluxswarm_gpu::learn::env::MultiAgentEnv;
 use fluxswarm_gpu::learn::mappo::{Iteration, Learner, TrainConfig};
 use fluxswarm_gpu::output::episodes::EpisodesCsv;
@@ -99,15 +99,9 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
         Some((dir, archive)) => resume_plan(dir, archive, &args)?,
         None => fresh_plan(&mut args)?,
     };
-    let ctx = args.common.open_gpu()?;
-    if resumed.is_none() {
-        super::common::suggest_native(&ctx, &plan.resolved);
-    }
-    let swarm = SwarmEnv::new(&ctx, &plan.resolved, plan.envs, plan.seed)?;
-    let mut env = GpuSwarmEnv {
-        env: swarm,
-        ctx: &ctx,
-    };
+    let opened = args.common.open_batch(&plan.resolved, plan.envs)?;
+    let runs_on = super::common::runs_on(&opened);
+    let mut env = SwarmEnv::new(opened.batch, &plan.resolved, plan.seed)?;
     let cfg: TrainConfig = plan.resolved.config.train.clone();
     let mut learner = Learner::new(env.n_agents(), OBS_DIM, cfg, plan.seed)?;
     let mut obs = env.reset()?;
@@ -115,7 +109,7 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
     let (mut progress, mut logs) = match &resumed {
         Some((_, archive)) => {
             learner.load_state(archive)?;
-            env.load_state(archive)?;
+            MultiAgentEnv::load_state(&mut env, archive)?;
             obs = archive.f32("train.obs", Some(obs.len()))?;
             let p = Progress {
                 update: archive.meta_parse("update")?,
@@ -139,7 +133,7 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
                 plan.seed,
                 plan.envs,
                 plan.steps,
-                super::common::runs_on(&ctx, &plan.resolved)
+                runs_on
             );
             std::fs::write(
                 plan.out.join("config.toml"),
@@ -436,12 +430,12 @@ fn save(
     p: &Progress,
     logs: &mut Logs,
     learner: &Learner,
-    env: &GpuSwarmEnv<'_>,
+    env: &SwarmEnv,
     obs: &[f32],
 ) -> anyhow::Result<()> {
     let mut a = Archive::new();
     learner.save_state(&mut a)?;
-    env.save_state(&mut a)?;
+    MultiAgentEnv::save_state(env, &mut a)?;
     a.put_f32("train.obs", &[obs.len()], obs);
     a.set_meta("kind", "train");
     a.set_meta("version", env!("CARGO_PKG_VERSION"));

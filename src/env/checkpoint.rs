@@ -1,24 +1,17 @@
 //! Saving and restoring the swarm environments in a checkpoint: the fluid batch (see
-//! `sim::fluid::checkpoint`), the environment RNG, and each environment's episode clock:
+//! `sim::FlowBatch::save_state`, the same arrays for both backends), the environment RNG, and each environment's episode clock:
 //! index and step [E], member positions at the previous control step and previous actions
 //! [E][N][2] (NaN where no action was taken yet) and the running reward sums [E][3].
 
 use super::{Episode, SwarmEnv};
 use crate::checkpoint::Archive;
-use crate::gpu::GpuContext;
 use crate::sim::SimError;
 
 impl SwarmEnv {
     /// Adds every environment's state under `prefix` (after a `reset`).
-    pub fn save_state(
-        &self,
-        ctx: &GpuContext,
-        archive: &mut Archive,
-        prefix: &str,
-    ) -> Result<(), SimError> {
+    pub fn save_state(&self, archive: &mut Archive, prefix: &str) -> Result<(), SimError> {
         assert_eq!(self.episodes.len(), self.n_env, "reset before saving");
-        self.batch
-            .save_state(ctx, archive, &format!("{prefix}.fluid"))?;
+        self.batch.save_state(archive, &format!("{prefix}.fluid"))?;
         let (ne, n) = (self.n_env, self.n);
         archive.put_u64(&format!("{prefix}.rng"), &[self.rng.0]);
         let eps = &self.episodes;

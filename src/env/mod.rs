@@ -16,9 +16,8 @@ pub mod rng;
 use std::fmt;
 
 use crate::config::Resolved;
-use crate::gpu::GpuContext;
 use crate::gpu::params::{GpuMember, GpuMemberDiag};
-use crate::sim::{FluidBatch, SimError};
+use crate::sim::{FlowBatch, SimError};
 use rng::Rng;
 
 /// Values per observation, per reward.
@@ -118,9 +117,9 @@ struct Episode {
     smoothness_sum: f64,
 }
 
-/// E swarm environments on one GPU batch.
+/// E swarm environments on one batch (either backend).
 pub struct SwarmEnv {
-    batch: FluidBatch,
+    batch: Box<dyn FlowBatch>,
     resolved: Resolved,
     n_env: usize,
     n: usize,
@@ -129,14 +128,10 @@ pub struct SwarmEnv {
 }
 
 impl SwarmEnv {
-    pub fn new(
-        ctx: &GpuContext,
-        resolved: &Resolved,
-        n_env: usize,
-        seed: u64,
-    ) -> Result<Self, SimError> {
-        let batch = FluidBatch::new(ctx, resolved, n_env)?;
+    /// The environments of `batch` (made for `resolved`), seeded with `seed`.
+    pub fn new(batch: Box<dyn FlowBatch>, resolved: &Resolved, seed: u64) -> Result<Self, SimError> {
         let n = batch.n_members();
+        let n_env = batch.n_env();
         Ok(Self {
             batch,
             resolved: resolved.clone(),
@@ -155,13 +150,13 @@ impl SwarmEnv {
         self.n
     }
 
-    pub fn batch(&self) -> &FluidBatch {
-        &self.batch
+    pub fn batch(&self) -> &dyn FlowBatch {
+        self.batch.as_ref()
     }
 
     /// The batch, for tests and tools that need to alter the fluid state.
-    pub fn batch_mut(&mut self) -> &mut FluidBatch {
-        &mut self.batch
+    pub fn batch_mut(&mut self) -> &mut dyn FlowBatch {
+        self.batch.as_mut()
     }
 
     /// Resets every environment; returns the observations [E][N][8].
@@ -257,11 +252,11 @@ impl SwarmEnv {
     }
 
     /// Advances every environment by one control step with raw actions [E][N][2].
-    pub fn step(&mut self, ctx: &GpuContext, actions: &[[f32; 2]]) -> Result<StepOutput, SimError> {
+    pub fn step(&mut self, actions: &[[f32; 2]]) -> Result<StepOutput, SimError> {
         assert_eq!(actions.len(), self.n_env * self.n, "one action per agent");
         assert_eq!(self.episodes.len(), self.n_env, "reset before step");
-        self.batch.set_all_actions(actions);
-        let health = self.batch.step(ctx)?;
+        self.batch.set_all_actions(actions)?;
+        let health = self.batch.step()?;
         // One copy of the read-back: resets below overwrite the batch's cached members.
         let members = self.batch.members().to_vec();
         let forces = self.batch.member_forces().to_vec();
@@ -377,35 +372,28 @@ impl SwarmEnv {
     }
 }
 
-/// `SwarmEnv` on a device, as the learner's [`crate::learn::env::MultiAgentEnv`].
-pub struct GpuSwarmEnv<'a> {
-    pub env: SwarmEnv,
-    pub ctx: &'a GpuContext,
-}
-
-impl crate::learn::env::MultiAgentEnv for GpuSwarmEnv<'_> {
+impl crate::learn::env::MultiAgentEnv for SwarmEnv {
     fn n_env(&self) -> usize {
-        self.env.n_env()
+        self.n_env
     }
     fn n_agents(&self) -> usize {
-        self.env.n_agents()
+        self.n
     }
     fn obs_dim(&self) -> usize {
         OBS_DIM
     }
     fn reset(&mut self) -> anyhow::Result<Vec<f32>> {
-        Ok(self.env.reset()?)
+        Ok(SwarmEnv::reset(self)?)
     }
     fn step(&mut self, actions: &[[f32; 2]]) -> anyhow::Result<Transition> {
-        let s = self.env.step(self.ctx, actions)?;
-        Ok(s.transition)
+        Ok(SwarmEnv::step(self, actions)?.transition)
     }
 
     fn save_state(&self, archive: &mut crate::checkpoint::Archive) -> anyhow::Result<()> {
-        Ok(self.env.save_state(self.ctx, archive, "env")?)
+        Ok(SwarmEnv::save_state(self, archive, "env")?)
     }
 
     fn load_state(&mut self, archive: &crate::checkpoint::Archive) -> anyhow::Result<()> {
-        Ok(self.env.load_state(archive, "env")?)
+        Ok(SwarmEnv::load_state(self, archive, "env")?)
     }
 }

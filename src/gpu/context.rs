@@ -47,7 +47,9 @@ impl fmt::Display for AdapterChoice {
     }
 }
 
-/// A device and queue with what we know about the adapter behind them.
+/// A device and queue with what we know about the adapter behind them (cheap to clone: the
+/// handles are shared).
+#[derive(Clone)]
 pub struct GpuContext {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,

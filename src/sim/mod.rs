@@ -1,14 +1,20 @@
-//! The batched channel-flow simulation: grid geometry ([`grid`]), the fast Poisson solver's
-//! tables ([`poisson`]), the GPU batch ([`fluid`]), its health read-back ([`health`]) and the
-//! plain-Rust twin of every kernel ([`cpu`]) that tests compare against.
+//! The batched channel-flow simulation behind one trait ([`FlowBatch`]) with two backends:
+//! the WGSL kernels ([`GpuBatch`], `fluid`) and the CPU stages ([`CpuBatch`], [`cpu`]), which
+//! are also the reference the kernels are tested against. [`open`] picks the backend per
+//! `solver.backend`. Beside them: grid geometry ([`grid`]), the fast Poisson solver's tables
+//! ([`poisson`]) and the per-environment health ([`health`]).
 
+pub mod batch;
 pub mod cpu;
 pub mod fluid;
 pub mod grid;
 pub mod health;
-pub mod native;
+pub mod open;
 pub mod poisson;
 
-pub use fluid::{Fields, FluidBatch, SimError, Stage};
+pub use batch::{BatchCore, Fields, FlowBatch};
+pub use cpu::{BatchState, CpuBatch};
+pub use fluid::{GpuBatch, SimError, Stage, batch_params};
 pub use grid::Grid;
 pub use health::EnvHealth;
+pub use open::{Opened, open};

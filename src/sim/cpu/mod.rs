@@ -1,0 +1,190 @@
+//! The CPU control step, written once, a module per stage: [`diffuse`], [`advect`],
+//! [`pressure`] (right-hand side, tridiagonal solve, back-transform), [`project`], [`members`]
+//! (paint, move) and [`diagnostics`]. It is both the production CPU backend ([`CpuBatch`],
+//! `solver.backend = "native"`) and the reference the WGSL kernels are tested against
+//! ([`stages`] applies each stage to a whole batch as a kernel does).
+//!
+//! Per substep of one environment (SPEC section 1):
+//!   paint     body = members painted as discs                  (with a swarm)
+//!   advect    u* = A(u^n + dt nu lap u^n), inlet, Brinkman     (diffuse + advect)
+//!   pressure  phat = Q^T (rho/dt div u*); (L_x + lambda_k) p_k = phat_k; p = Q p_k
+//!   project   u = u* - dt/rho grad p
+//!   move      members forced and moved in (u, p)               (with a swarm)
+//! State ([`BatchState`], environment outermost): u [E][ny][nx+1], v [E][ny+1][nx],
+//! p and body [E][ny][nx], divstar [E][nx], members and actions [E][N], boxes [E].
+//! Environments are independent: one rayon task steps one environment through a whole control
+//! step, so the result does not depend on the number of threads.
+
+pub mod advect;
+mod batch;
+pub mod diagnostics;
+pub mod diffuse;
+pub mod members;
+pub mod pressure;
+pub mod project;
+pub mod stages;
+pub(crate) mod stencil;
+
+pub use batch::CpuBatch;
+pub use members::{cd_times_speed, propulsion};
+pub use stages::{
+    AdvectInputs, advect, diagnostics, move_members, paint_bodies, pressure_rhs, pressure_solve,
+    project,
+};
+
+use rayon::prelude::*;
+
+use super::EnvHealth;
+use crate::config::Advection;
+use crate::gpu::params::{GpuMember, GpuMemberDiag, GpuParams};
+use advect::AdvectScratch;
+use stencil::Dim;
+
+/// The state of a whole batch on the host: what a control step reads and writes. The GPU
+/// batch reads its buffers into one ([`crate::sim::FlowBatch::state`]) and the CPU batch
+/// steps one in place.
+#[derive(Debug, Clone)]
+pub struct BatchState {
+    pub params: GpuParams,
+    pub scheme: Advection,
+    /// The fast solver's tables ([`crate::sim::poisson::PoissonTables::to_gpu`]).
+    pub poisson: Vec<f32>,
+    pub u: Vec<f32>,
+    pub v: Vec<f32>,
+    pub p: Vec<f32>,
+    pub body: Vec<[f32; 4]>,
+    pub divstar: Vec<f32>,
+    /// Members [E][N], their raw actions and the swarm boxes [E] (empty without a swarm).
+    pub members: Vec<GpuMember>,
+    pub actions: Vec<[f32; 2]>,
+    pub boxes: Vec<[f32; 4]>,
+}
+
+/// Reusable buffers of one environment's step.
+#[derive(Debug, Default, Clone)]
+pub struct Scratch {
+    advect: AdvectScratch,
+    u_out: Vec<f32>,
+    v_out: Vec<f32>,
+    modes: Vec<f32>,
+}
+
+/// One environment's part of a [`BatchState`], borrowed for its step.
+struct EnvMut<'a> {
+    u: &'a mut [f32],
+    v: &'a mut [f32],
+    p: &'a mut [f32],
+    body: &'a mut [[f32; 4]],
+    divstar: &'a mut [f32],
+    members: &'a mut [GpuMember],
+    actions: &'a [[f32; 2]],
+    bx: &'a mut [f32; 4],
+    diags: &'a mut [GpuMemberDiag],
+}
+
+/// `data` as `n_env` consecutive chunks of `len` (empty chunks when len is 0).
+fn chunks<T>(data: &mut [T], len: usize, n_env: usize) -> Vec<&mut [T]> {
+    if len == 0 {
+        return (0..n_env).map(|_| <&mut [T]>::default()).collect();
+    }
+    data.chunks_mut(len).collect()
+}
+
+impl BatchState {
+    /// One control step of every environment; `inlet` is [E][S]. With members, each substep
+    /// paints them into the body field first and moves them after the projection.
+    pub fn step(&mut self, inlet: &[f32]) -> Vec<EnvHealth> {
+        let ne = self.params.n_env as usize;
+        let mut scratch = vec![Scratch::default(); ne];
+        let mut diags = vec![GpuMemberDiag::default(); ne * self.params.n_members as usize];
+        self.step_with(inlet, &mut scratch, &mut diags)
+    }
+
+    /// [`Self::step`] with the caller's scratch (one per environment) and the members' forces
+    /// of the last substep written to `diags` [E][N].
+    pub fn step_with(
+        &mut self,
+        inlet: &[f32],
+        scratch: &mut [Scratch],
+        diags: &mut [GpuMemberDiag],
+    ) -> Vec<EnvHealth> {
+        let p = self.params;
+        let d = Dim::new(&p);
+        let (ne, n, subs) = (p.n_env as usize, p.n_members as usize, p.substeps as usize);
+        self.boxes.resize(ne, [0.0; 4]);
+        let (scheme, poisson) = (self.scheme, &self.poisson);
+        let u = chunks(&mut self.u, d.n_u(), ne);
+        let v = chunks(&mut self.v, d.n_v(), ne);
+        let pr = chunks(&mut self.p, d.n_c(), ne);
+        let body = chunks(&mut self.body, d.n_c(), ne);
+        let divstar = chunks(&mut self.divstar, d.nx, ne);
+        let members = chunks(&mut self.members, n, ne);
+        let diags = chunks(diags, n, ne);
+        let actions: Vec<&[[f32; 2]]> = (0..ne)
+            .map(|e| self.actions.get(e * n..(e + 1) * n).unwrap_or(&[]))
+            .collect();
+        let envs: Vec<EnvMut> = u
+            .into_iter()
+            .zip(v)
+            .zip(pr)
+            .zip(body)
+            .zip(divstar)
+            .zip(members)
+            .zip(diags)
+            .zip(actions)
+            .zip(self.boxes.iter_mut())
+            .map(
+                |((((((((u, v), p), body), divstar), members), diags), actions), bx)| EnvMut {
+                    u,
+                    v,
+                    p,
+                    body,
+                    divstar,
+                    members,
+                    actions,
+                    bx,
+                    diags,
+                },
+            )
+            .collect();
+        envs.into_par_iter()
+            .zip(scratch.par_iter_mut())
+            .enumerate()
+            .map(|(e, (env, s))| step_env(&d, scheme, poisson, env, &inlet[e * subs..(e + 1) * subs], s))
+            .collect()
+    }
+}
+
+/// One control step of one environment (the inlet centreline velocity at the end of each
+/// substep in `inlet`).
+fn step_env(
+    d: &Dim,
+    scheme: Advection,
+    poisson: &[f32],
+    env: EnvMut,
+    inlet: &[f32],
+    s: &mut Scratch,
+) -> EnvHealth {
+    s.u_out.resize(d.n_u(), 0.0);
+    s.v_out.resize(d.n_v(), 0.0);
+    s.modes.resize(d.n_c(), 0.0);
+    let swarm = !env.members.is_empty();
+    for &centre in inlet {
+        if swarm {
+            members::paint_bodies(d, env.members, *env.bx, env.body);
+        }
+        let (u_out, v_out) = (&mut s.u_out, &mut s.v_out);
+        advect::advect(d, scheme, env.u, env.v, env.body, centre, &mut s.advect, u_out, v_out);
+        pressure::rhs(d, poisson, u_out, v_out, &mut s.modes, env.divstar);
+        pressure::solve(d, poisson, &mut s.modes);
+        pressure::back(d, poisson, &s.modes, env.p);
+        project::project(d, env.p, u_out, v_out);
+        env.u.copy_from_slice(u_out);
+        env.v.copy_from_slice(v_out);
+        if swarm {
+            let (m, a) = (&mut *env.members, env.actions);
+            members::move_members(d, m, a, env.p, env.u, env.v, env.diags, env.bx);
+        }
+    }
+    diagnostics::diagnostics(d, env.u, env.v, env.p, env.divstar)
+}

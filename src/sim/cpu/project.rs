@@ -1,0 +1,25 @@
+//! The velocity correction of the projection, u = u* - dt/rho grad p, on every interior face
+//! (the outlet face sees the ghost p = -p_last, i.e. p = 0 on the face; the inlet u faces and
+//! the wall v faces keep their boundary values). Mirrors `project` in `shaders/project.wgsl`.
+//! Shapes: u [ny][nx+1], v [ny+1][nx], p [ny][nx]. 2 loads, 1 store, 4 flops per face.
+
+use super::stencil::Dim;
+
+/// Subtracts dt/rho grad p from u, v in place.
+pub(crate) fn project(d: &Dim, pres: &[f32], u: &mut [f32], v: &mut [f32]) {
+    let (nx, ny, p) = (d.nx, d.ny, &d.p);
+    let scale = p.dt / p.rho;
+    let row = nx + 1;
+    for j in 0..ny {
+        for i in 1..=nx {
+            let left = pres[j * nx + i - 1];
+            let right = if i == nx { -left } else { pres[j * nx + i] };
+            u[j * row + i] -= scale * (right - left) / p.dx;
+        }
+    }
+    for j in 1..ny {
+        for i in 0..nx {
+            v[j * nx + i] -= scale * (pres[j * nx + i] - pres[(j - 1) * nx + i]) / p.dy;
+        }
+    }
+}

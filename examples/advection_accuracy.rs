@@ -6,7 +6,8 @@ use std::time::Instant;
 
 use fluxswarm_gpu::config::Config;
 use fluxswarm_gpu::gpu::{AdapterChoice, GpuContext};
-use fluxswarm_gpu::sim::FluidBatch;
+use fluxswarm_gpu::sim::FlowBatch;
+use fluxswarm_gpu::sim::GpuBatch;
 
 fn run(
     ctx: &GpuContext,
@@ -23,7 +24,7 @@ fn run(
             format!("time.substeps={substeps}"),
         ],
     )?;
-    let mut b = FluidBatch::new(ctx, &r, 1)?;
+    let mut b = GpuBatch::new(ctx, &r, 1)?;
     let g = *b.grid();
     let (cx, cy, rad) = (0.05, 0.001, 250e-6);
     let body: Vec<[f32; 4]> = (0..g.n_cells())
@@ -39,11 +40,11 @@ fn run(
     let t = Instant::now();
     let mut max_div = 0.0f32;
     for _ in 0..steps {
-        let h = b.step(ctx)?;
+        let h = b.step()?;
         max_div = max_div.max(h[0].max_div);
     }
     let wall = t.elapsed().as_secs_f64();
-    Ok((b.fields(ctx, 0)?.ux_cells(), wall, max_div))
+    Ok((b.fields(0)?.ux_cells(), wall, max_div))
 }
 
 fn main() -> anyhow::Result<()> {

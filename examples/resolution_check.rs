@@ -24,19 +24,23 @@ fn run(ctx: &GpuContext, refine: u32) -> anyhow::Result<Vec<(f64, f64, f64)>> {
         "env.position_jitter_m=0.0".to_string(),
     ];
     let resolved = Config::load(None, &sets)?;
-    let mut env = SwarmEnv::new(ctx, &resolved, 1, 0)?;
+    let mut env = SwarmEnv::new(
+        Box::new(fluxswarm_gpu::sim::GpuBatch::new(ctx, &resolved, 1)?),
+        &resolved,
+        0,
+    )?;
     env.reset()?;
     let n = env.n_agents();
     let dt = resolved.config.time.control_dt_s;
     let mut out = Vec::new();
     for step in 1..=*REPORT_STEPS.last().unwrap_or(&0) {
-        let s = env.step(ctx, &vec![[0.0f32; 2]; n])?;
+        let s = env.step(&vec![[0.0f32; 2]; n])?;
         if s.episodes[0].is_some() {
             anyhow::bail!("the episode ended at step {step}, before the last report time");
         }
         if REPORT_STEPS.contains(&step) {
             let x_com = s.members.iter().map(|m| m.pos[0] as f64).sum::<f64>() / n as f64;
-            let f = env.batch().fields(ctx, 0)?;
+            let f = env.batch().fields(0)?;
             let (nx, ny) = (f.nx, f.ny);
             let col = |i: usize| (0..ny).map(|j| f.p[j * nx + i] as f64).sum::<f64>() / ny as f64;
             out.push((step as f64 * dt, x_com * 1e3, col(0) - col(nx - 1)));

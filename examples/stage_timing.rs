@@ -4,7 +4,8 @@ use std::time::Instant;
 
 use fluxswarm_gpu::config::Config;
 use fluxswarm_gpu::gpu::{AdapterChoice, GpuContext};
-use fluxswarm_gpu::sim::{FluidBatch, Stage};
+use fluxswarm_gpu::sim::FlowBatch;
+use fluxswarm_gpu::sim::{GpuBatch, Stage};
 
 fn main() -> anyhow::Result<()> {
     let e: usize = std::env::args()
@@ -16,8 +17,8 @@ fn main() -> anyhow::Result<()> {
     let resolved = Config::load(None, &sets)?;
     let ctx = GpuContext::new(AdapterChoice::Auto)?;
     println!("{}", ctx.banner());
-    let mut batch = FluidBatch::new(&ctx, &resolved, e)?;
-    batch.step(&ctx)?;
+    let mut batch = GpuBatch::new(&ctx, &resolved, e)?;
+    batch.step()?;
     for stage in [
         Stage::Advect,
         Stage::PressureRhs,
@@ -25,10 +26,10 @@ fn main() -> anyhow::Result<()> {
         Stage::Project,
         Stage::Diagnostics,
     ] {
-        batch.run_stages(&ctx, &[stage], 0, 2)?;
+        batch.run_stages(&[stage], 0, 2)?;
         let reps = 10;
         let t = Instant::now();
-        batch.run_stages(&ctx, &[stage], 0, reps)?;
+        batch.run_stages(&[stage], 0, reps)?;
         println!(
             "{stage:?}: {:.3} ms per dispatch set",
             t.elapsed().as_secs_f64() * 1e3 / reps as f64

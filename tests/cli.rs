@@ -43,7 +43,7 @@ fn simulate_writes_frames_fields_and_summary() {
     let o = bin(&args);
     assert!(o.status.success(), "{}", text(&o));
     let t = text(&o);
-    assert!(t.contains("adapter: "), "{t}");
+    assert!(t.contains("control step: "), "{t}");
     assert!(t.contains(out_s), "prints the directory it wrote: {t}");
     for step in [0, 2, 4] {
         let png = out.join(format!("frames/env0_s{step:06}.png"));
@@ -134,7 +134,7 @@ fn csv_lines(path: &std::path::Path) -> Vec<String> {
 fn bench_writes_its_table_and_csv() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("bench");
-    let output = bench(&out, "1,3", &[]);
+    let output = bench(&out, "1,3", &["--set", "solver.backend=adapter"]);
     let rows: Vec<&str> = output
         .lines()
         .filter(|l| l.trim_start().starts_with(|c: char| c.is_ascii_digit()))
@@ -154,14 +154,18 @@ fn bench_writes_its_table_and_csv() {
     assert_eq!(cols[4], "1");
 }
 
-/// `bench --native` adds the native step's rate at each batch size and writes native.csv; the
-/// native backend's own bench table has no dispatches.
+/// `bench --native` adds the CPU backend's rate at each batch size and writes native.csv; the
+/// CPU backend's own bench table has no dispatches.
 #[test]
 fn bench_native_writes_the_ratio_to_the_adapter() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("bench");
-    let output = bench(&out, "1,3", &["--native"]);
-    assert!(output.contains("native yardstick"), "{output}");
+    let output = bench(
+        &out,
+        "1,3",
+        &["--native", "--set", "solver.backend=adapter"],
+    );
+    assert!(output.contains("CPU backend (sim::cpu"), "{output}");
     let lines = csv_lines(&out.join("native.csv"));
     assert_eq!(
         lines[0],
@@ -184,7 +188,7 @@ fn bench_native_writes_the_ratio_to_the_adapter() {
     let lines = csv_lines(&out.join("bench.csv"));
     let row: Vec<&str> = lines[1].split(',').collect();
     assert_eq!(row[3], "0", "no dispatches on the native backend");
-    assert!(lines[1].contains(",\"native CPU backend, "), "{}", lines[1]);
+    assert!(lines[1].contains(",\"CPU backend, "), "{}", lines[1]);
 }
 
 #[test]
@@ -287,7 +291,7 @@ fn train_writes_config_episodes_and_updates() {
     ];
     let o = bin(&[&args[..], SMALL_SWARM].concat());
     assert!(o.status.success(), "{}", text(&o));
-    assert!(text(&o).contains("adapter: "));
+    assert!(text(&o).contains("control step: "));
     let config = std::fs::read_to_string(out.join("config.toml")).unwrap();
     assert!(
         config.starts_with("# fluxswarm-gpu ")

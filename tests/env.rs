@@ -7,7 +7,7 @@ mod common;
 use fluxswarm_gpu::config::Resolved;
 use fluxswarm_gpu::env::policy::Baseline;
 use fluxswarm_gpu::env::rng::Rng;
-use fluxswarm_gpu::env::{OBS_DIM, Outcome, SwarmEnv};
+use fluxswarm_gpu::env::{OBS_DIM, Outcome};
 use fluxswarm_gpu::gpu::kernels::FieldBinding;
 
 /// A 30 x 2 mm channel (success line 6 mm, failure line 24 mm) with members at `pos_mm`.
@@ -20,15 +20,14 @@ const MID: [[f64; 2]; 3] = [[14.0, 0.6], [15.0, 1.4], [16.0, 0.6]];
 #[test]
 fn a_swarm_past_the_success_line_terminates_with_success() {
     let (_lock, ctx) = common::gpu();
-    let mut env = SwarmEnv::new(
+    let mut env = common::gpu_env(
         &ctx,
         &config(&[[4.0, 0.6], [5.0, 1.4], [6.5, 0.6]], &[]),
         1,
         0,
-    )
-    .unwrap();
+    );
     env.reset().unwrap();
-    let s = env.step(&ctx, &[[0.0; 2]; 3]).unwrap();
+    let s = env.step(&[[0.0; 2]; 3]).unwrap();
     assert!(s.terminated[0] && !s.truncated[0] && !s.diverged[0]);
     let ep = s.episodes[0].as_ref().unwrap();
     assert_eq!(ep.outcome, Outcome::Success);
@@ -47,15 +46,14 @@ fn a_swarm_past_the_success_line_terminates_with_success() {
 #[test]
 fn a_member_past_the_failure_line_terminates_with_failure() {
     let (_lock, ctx) = common::gpu();
-    let mut env = SwarmEnv::new(
+    let mut env = common::gpu_env(
         &ctx,
         &config(&[[14.0, 0.6], [15.0, 1.4], [24.5, 0.6]], &[]),
         1,
         0,
-    )
-    .unwrap();
+    );
     env.reset().unwrap();
-    let s = env.step(&ctx, &[[0.0; 2]; 3]).unwrap();
+    let s = env.step(&[[0.0; 2]; 3]).unwrap();
     assert!(s.terminated[0]);
     assert_eq!(s.episodes[0].as_ref().unwrap().outcome, Outcome::Failure);
     assert_eq!(s.rewards[6], -10.0);
@@ -66,10 +64,10 @@ fn episodes_truncate_after_max_steps_with_a_final_observation() {
     let (_lock, ctx) = common::gpu();
     let default = fluxswarm_gpu::config::Config::paper();
     assert_eq!(default.env.max_steps, 2000, "10 s of 5 ms control steps");
-    let mut env = SwarmEnv::new(&ctx, &config(&MID, &["env.max_steps=3"]), 1, 0).unwrap();
+    let mut env = common::gpu_env(&ctx, &config(&MID, &["env.max_steps=3"]), 1, 0);
     env.reset().unwrap();
     for k in 1..=3 {
-        let s = env.step(&ctx, &[[0.0; 2]; 3]).unwrap();
+        let s = env.step(&[[0.0; 2]; 3]).unwrap();
         assert!(!s.terminated[0]);
         assert_eq!(s.truncated[0], k == 3, "step {k}");
         if k == 3 {
@@ -81,7 +79,7 @@ fn episodes_truncate_after_max_steps_with_a_final_observation() {
             assert!(s.final_obs[0].is_some());
         }
     }
-    let s = env.step(&ctx, &[[0.0; 2]; 3]).unwrap();
+    let s = env.step(&[[0.0; 2]; 3]).unwrap();
     assert_eq!(
         (s.episode[0], s.episode_step[0]),
         (1, 1),
@@ -94,21 +92,21 @@ fn a_diverged_environment_ends_alone_and_the_others_continue_unchanged() {
     let (_lock, ctx) = common::gpu();
     let r = config(&MID, &[]);
     let actions = |k: usize| [[-1.0, 0.1 * k as f32], [0.3, 0.2], [0.0, -1.0]];
-    let mut pair = SwarmEnv::new(&ctx, &r, 2, 3).unwrap();
-    let mut alone = SwarmEnv::new(&ctx, &r, 1, 3).unwrap();
+    let mut pair = common::gpu_env(&ctx, &r, 2, 3);
+    let mut alone = common::gpu_env(&ctx, &r, 1, 3);
     pair.reset().unwrap();
     alone.reset().unwrap();
     for k in 0..6 {
         if k == 2 {
-            let b = pair.batch_mut();
-            let mut u = b.read_env(&ctx, FieldBinding::UIn, 1).unwrap();
+            let b = pair.batch_mut().as_gpu_mut().unwrap();
+            let mut u = b.read_env(FieldBinding::UIn, 1).unwrap();
             u[500] = f32::NAN;
             b.write_env(FieldBinding::UIn, 1, &u).unwrap();
         }
         let a = actions(k);
         let both: Vec<[f32; 2]> = a.iter().chain(a.iter()).copied().collect();
-        let s = pair.step(&ctx, &both).unwrap();
-        let t = alone.step(&ctx, &a).unwrap();
+        let s = pair.step(&both).unwrap();
+        let t = alone.step(&a).unwrap();
         assert_eq!(s.diverged[1], k == 2, "step {k}");
         if k == 2 {
             assert!(!s.terminated[1] && !s.truncated[1]);
@@ -139,13 +137,13 @@ fn the_same_seed_gives_the_same_trajectory_and_k_of_a_batch_equals_k_alone() {
         &["inlet.random_phase=true", "env.position_jitter_m=0.0001"],
     );
     let run = |seed: u64, envs: usize| {
-        let mut env = SwarmEnv::new(&ctx, &r, envs, seed).unwrap();
+        let mut env = common::gpu_env(&ctx, &r, envs, seed);
         let mut rng = Rng::new(seed);
         let mut obs = env.reset().unwrap();
         let mut trace = obs.clone();
         for _ in 0..4 {
             let a = Baseline::Random.act_all(&obs, &mut rng);
-            let s = env.step(&ctx, &a).unwrap();
+            let s = env.step(&a).unwrap();
             obs = s.transition.obs;
             trace.extend(&obs);
             trace.extend(&s.transition.rewards);
@@ -159,15 +157,15 @@ fn the_same_seed_gives_the_same_trajectory_and_k_of_a_batch_equals_k_alone() {
     // Without random starts, environment 1 of a batch equals the same environment alone.
     let r = config(&MID, &[]);
     let a = [[-0.5f32, 0.2], [1.2, -0.7], [0.1, 0.9]];
-    let mut pair = SwarmEnv::new(&ctx, &r, 2, 0).unwrap();
-    let mut alone = SwarmEnv::new(&ctx, &r, 1, 0).unwrap();
+    let mut pair = common::gpu_env(&ctx, &r, 2, 0);
+    let mut alone = common::gpu_env(&ctx, &r, 1, 0);
     pair.reset().unwrap();
     alone.reset().unwrap();
     for _ in 0..4 {
         let zero = [[0.0f32; 2]; 3];
         let both: Vec<[f32; 2]> = zero.iter().chain(a.iter()).copied().collect();
-        let s = pair.step(&ctx, &both).unwrap();
-        let t = alone.step(&ctx, &a).unwrap();
+        let s = pair.step(&both).unwrap();
+        let t = alone.step(&a).unwrap();
         assert_eq!(&s.obs[3 * OBS_DIM..], &t.obs[..]);
         assert_eq!(&s.rewards[9..], &t.rewards[..]);
     }

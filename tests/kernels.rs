@@ -7,18 +7,19 @@ use common::{Noise, max_diff, random_body, small_config};
 use fluxswarm_gpu::config::Advection;
 use fluxswarm_gpu::gpu::GpuContext;
 use fluxswarm_gpu::gpu::kernels::FieldBinding;
+use fluxswarm_gpu::sim::FlowBatch;
 use fluxswarm_gpu::sim::cpu;
-use fluxswarm_gpu::sim::{FluidBatch, Stage};
+use fluxswarm_gpu::sim::{GpuBatch, Stage};
 
 const E: usize = 3;
 const NX: u32 = 37;
 const NY: u32 = 11;
 
-fn batch(ctx: &GpuContext, scheme: &str) -> FluidBatch {
+fn batch(ctx: &GpuContext, scheme: &str) -> GpuBatch {
     batch_with(ctx, scheme, "euler")
 }
 
-fn batch_with(ctx: &GpuContext, scheme: &str, trace: &str) -> FluidBatch {
+fn batch_with(ctx: &GpuContext, scheme: &str, trace: &str) -> GpuBatch {
     let r = small_config(
         NX,
         NY,
@@ -27,12 +28,12 @@ fn batch_with(ctx: &GpuContext, scheme: &str, trace: &str) -> FluidBatch {
             &format!("solver.backtrace={trace}"),
         ],
     );
-    FluidBatch::new(ctx, &r, E).unwrap()
+    GpuBatch::new(ctx, &r, E).unwrap()
 }
 
 /// Random velocities of about 0.2 m/s (departure points up to ~1 cell away), random bodies
 /// (a quarter of the cells partly or fully solid, moving) and random inlet values.
-fn randomise(batch: &mut FluidBatch, seed: u64) -> (Vec<f32>, Vec<f32>, Vec<[f32; 4]>, Vec<f32>) {
+fn randomise(batch: &mut GpuBatch, seed: u64) -> (Vec<f32>, Vec<f32>, Vec<[f32; 4]>, Vec<f32>) {
     let g = *batch.grid();
     let mut n = Noise::new(seed);
     let u: Vec<f32> = n.vec(E * g.n_u(), 0.2).iter().map(|x| x + 0.15).collect();
@@ -64,9 +65,9 @@ fn advect_matches(scheme: &str, kind: Advection, trace: &str) {
     assert_eq!(b.params().rk2, (trace == "rk2") as u32);
     let (u, v, body, inlet) = randomise(&mut b, 7);
     let s = 3; // a substep other than 0: reads its own inlet value
-    b.run_stages(&ctx, &[Stage::Advect], s, 1).unwrap();
-    let gu = b.read_all(&ctx, FieldBinding::UOut).unwrap();
-    let gv = b.read_all(&ctx, FieldBinding::VOut).unwrap();
+    b.run_stages(&[Stage::Advect], s, 1).unwrap();
+    let gu = b.read_all(FieldBinding::UOut).unwrap();
+    let gv = b.read_all(FieldBinding::VOut).unwrap();
     let (cu, cv) = cpu::advect(
         b.params(),
         kind,
@@ -112,18 +113,18 @@ fn pressure_rhs_matches_cpu() {
     let v = n.vec(E * g.n_v(), 0.1);
     b.write_all(FieldBinding::UOut, &u);
     b.write_all(FieldBinding::VOut, &v);
-    b.run_stages(&ctx, &[Stage::PressureRhs], 0, 1).unwrap();
-    let poisson = b.read_all(&ctx, FieldBinding::Poisson).unwrap();
+    b.run_stages(&[Stage::PressureRhs], 0, 1).unwrap();
+    let poisson = b.read_all(FieldBinding::Poisson).unwrap();
     let (modes, divstar) = cpu::pressure_rhs(b.params(), &poisson, &u, &v);
     assert_close(
         "modes",
-        &b.read_all(&ctx, FieldBinding::Modes).unwrap(),
+        &b.read_all(FieldBinding::Modes).unwrap(),
         &modes,
         1e-5,
     );
     assert_close(
         "divstar",
-        &b.read_all(&ctx, FieldBinding::DivStar).unwrap(),
+        &b.read_all(FieldBinding::DivStar).unwrap(),
         &divstar,
         1e-6,
     );
@@ -131,16 +132,16 @@ fn pressure_rhs_matches_cpu() {
 
 /// Runs the batch's tridiagonal kernel on random right-hand sides and compares it with the
 /// CPU twin's Thomas sweeps.
-fn solve_matches_thomas(ctx: &GpuContext, b: &FluidBatch, n_env: usize, seed: u64, label: &str) {
+fn solve_matches_thomas(b: &GpuBatch, n_env: usize, seed: u64, label: &str) {
     let rhs = Noise::new(seed).vec(n_env * b.grid().n_cells(), 1e5);
     b.write_all(FieldBinding::Modes, &rhs);
-    b.run_stages(ctx, &[Stage::PressureSolve], 0, 1).unwrap();
-    let poisson = b.read_all(ctx, FieldBinding::Poisson).unwrap();
+    b.run_stages(&[Stage::PressureSolve], 0, 1).unwrap();
+    let poisson = b.read_all(FieldBinding::Poisson).unwrap();
     let mut modes = rhs.clone();
     cpu::pressure_solve(b.params(), &poisson, &mut modes);
     assert_close(
         label,
-        &b.read_all(ctx, FieldBinding::Modes).unwrap(),
+        &b.read_all(FieldBinding::Modes).unwrap(),
         &modes,
         1e-5,
     );
@@ -150,9 +151,9 @@ fn solve_matches_thomas(ctx: &GpuContext, b: &FluidBatch, n_env: usize, seed: u6
 fn pressure_solve_matches_cpu() {
     let (_lock, ctx) = common::gpu();
     let r = small_config(NX, NY, &["solver.pressure_sweep=sequential"]);
-    let b = FluidBatch::new(&ctx, &r, E).unwrap();
+    let b = GpuBatch::new(&ctx, &r, E).unwrap();
     assert_eq!(b.pressure_sweep(), "sequential");
-    solve_matches_thomas(&ctx, &b, E, 13, "solved modes");
+    solve_matches_thomas(&b, E, 13, "solved modes");
 }
 
 /// The scan kernel (`solver.pressure_sweep = "scan"`) solves the same systems as the CPU
@@ -163,15 +164,9 @@ fn pressure_scan_matches_cpu_thomas() {
     let (_lock, ctx) = common::gpu();
     for (nx, ny, n_env) in [(NX, NY, E), (601, 5, 2), (1000, 20, 1)] {
         let r = small_config(nx, ny, &["solver.pressure_sweep=scan"]);
-        let b = FluidBatch::new(&ctx, &r, n_env).unwrap();
+        let b = GpuBatch::new(&ctx, &r, n_env).unwrap();
         assert_eq!(b.pressure_sweep(), "scan");
-        solve_matches_thomas(
-            &ctx,
-            &b,
-            n_env,
-            17,
-            &format!("scan-solved modes at {nx} x {ny}"),
-        );
+        solve_matches_thomas(&b, n_env, 17, &format!("scan-solved modes at {nx} x {ny}"));
     }
 }
 
@@ -187,27 +182,12 @@ fn project_matches_cpu() {
     b.write_all(FieldBinding::Modes, &modes);
     b.write_all(FieldBinding::UOut, &u);
     b.write_all(FieldBinding::VOut, &v);
-    b.run_stages(&ctx, &[Stage::Project], 0, 1).unwrap();
-    let poisson = b.read_all(&ctx, FieldBinding::Poisson).unwrap();
+    b.run_stages(&[Stage::Project], 0, 1).unwrap();
+    let poisson = b.read_all(FieldBinding::Poisson).unwrap();
     let p = cpu::project(b.params(), &poisson, &modes, &mut u, &mut v);
-    assert_close(
-        "p",
-        &b.read_all(&ctx, FieldBinding::Pressure).unwrap(),
-        &p,
-        1e-5,
-    );
-    assert_close(
-        "u",
-        &b.read_all(&ctx, FieldBinding::UOut).unwrap(),
-        &u,
-        1e-5,
-    );
-    assert_close(
-        "v",
-        &b.read_all(&ctx, FieldBinding::VOut).unwrap(),
-        &v,
-        1e-5,
-    );
+    assert_close("p", &b.read_all(FieldBinding::Pressure).unwrap(), &p, 1e-5);
+    assert_close("u", &b.read_all(FieldBinding::UOut).unwrap(), &u, 1e-5);
+    assert_close("v", &b.read_all(FieldBinding::VOut).unwrap(), &v, 1e-5);
 }
 
 #[test]
@@ -229,7 +209,7 @@ fn diagnostics_match_cpu_and_count_non_finite_values() {
     b.write_all(FieldBinding::VIn, &v);
     b.write_all(FieldBinding::Pressure, &p);
     b.write_all(FieldBinding::DivStar, &divstar);
-    let gpu = b.health(&ctx).unwrap();
+    let gpu = b.health().unwrap();
     let cpu = cpu::diagnostics(b.params(), &u, &v, &p, &divstar);
     for e in [0, 2] {
         let (h, c) = (gpu[e], cpu[e]);
@@ -274,11 +254,11 @@ fn whole_control_step_matches_cpu_with(sweep: &str) {
             &format!("solver.pressure_sweep={sweep}"),
         ],
     );
-    let mut b = FluidBatch::new(&ctx, &r, E).unwrap();
+    let mut b = GpuBatch::new(&ctx, &r, E).unwrap();
     assert_eq!(b.pressure_sweep(), sweep);
     let (u, v, body, _) = randomise(&mut b, 23);
-    let poisson = b.read_all(&ctx, FieldBinding::Poisson).unwrap();
-    let mut reference = cpu::CpuBatch {
+    let poisson = b.read_all(FieldBinding::Poisson).unwrap();
+    let mut reference = cpu::BatchState {
         params: *b.params(),
         scheme: Advection::Maccormack,
         poisson,
@@ -295,23 +275,23 @@ fn whole_control_step_matches_cpu_with(sweep: &str) {
     let inlet: Vec<f32> = (0..E)
         .flat_map(|_| (0..5).map(|s| b.waveform().at((s as f64 + 1.0) * 0.00125 / 5.0) as f32))
         .collect();
-    let health = b.step(&ctx).unwrap();
+    let health = b.step().unwrap();
     let cpu_health = reference.step(&inlet);
     assert_close(
         "u",
-        &b.read_all(&ctx, FieldBinding::UIn).unwrap(),
+        &b.read_all(FieldBinding::UIn).unwrap(),
         &reference.u,
         1e-4,
     );
     assert_close(
         "v",
-        &b.read_all(&ctx, FieldBinding::VIn).unwrap(),
+        &b.read_all(FieldBinding::VIn).unwrap(),
         &reference.v,
         1e-4,
     );
     assert_close(
         "p",
-        &b.read_all(&ctx, FieldBinding::Pressure).unwrap(),
+        &b.read_all(FieldBinding::Pressure).unwrap(),
         &reference.p,
         1e-4,
     );

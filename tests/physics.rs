@@ -7,10 +7,10 @@ mod common;
 
 use common::small_config;
 use fluxswarm_gpu::config::Config;
-use fluxswarm_gpu::gpu::GpuContext;
 use fluxswarm_gpu::gpu::kernels::FieldBinding;
+use fluxswarm_gpu::sim::FlowBatch;
 use fluxswarm_gpu::sim::health::DIV_TOLERANCE;
-use fluxswarm_gpu::sim::{FluidBatch, Grid};
+use fluxswarm_gpu::sim::{GpuBatch, Grid};
 
 /// Discrete flux per unit depth of the parabolic inlet with centreline velocity U.
 fn inlet_flux(g: &Grid, centre: f64) -> f64 {
@@ -41,7 +41,7 @@ fn steady_poiseuille(scheme: &str) {
             &format!("solver.advection={scheme}"),
         ],
     );
-    let mut b = FluidBatch::new(&ctx, &r, 1).unwrap();
+    let mut b = GpuBatch::new(&ctx, &r, 1).unwrap();
     let g = *b.grid();
     // Start far from the answer: a plug flow of the same flux (inlet face keeps the parabola).
     let mean = inlet_flux(&g, u0) / g.height_m;
@@ -50,8 +50,8 @@ fn steady_poiseuille(scheme: &str) {
         u[g.u_idx(0, j)] = g.inlet_profile(u0, j) as f32;
     }
     b.write_env(FieldBinding::UIn, 0, &u).unwrap();
-    let error_at = |b: &FluidBatch| {
-        let f = b.fields(&ctx, 0).unwrap();
+    let error_at = |b: &GpuBatch| {
+        let f = b.fields(0).unwrap();
         let ux = f.ux_cells();
         let i = g.nx / 2;
         let (mut num, mut den) = (0.0, 0.0);
@@ -64,7 +64,7 @@ fn steady_poiseuille(scheme: &str) {
     };
     let (initial_error, _) = error_at(&b);
     for _ in 0..200 {
-        let h = b.step(&ctx).unwrap();
+        let h = b.step().unwrap();
         assert!(h[0].is_finite());
     }
     let (error, f) = error_at(&b);
@@ -97,14 +97,14 @@ fn steady_poiseuille_semi_lagrangian() {
 }
 
 /// Runs `steps` control steps and checks flux balance and divergence at every one.
-fn check_conservation(ctx: &GpuContext, b: &mut FluidBatch, steps: usize, label: &str) {
+fn check_conservation(b: &mut GpuBatch, steps: usize, label: &str) {
     let g = *b.grid();
     let peak = b.waveform().peak_abs();
     let peak_flux = inlet_flux(&g, peak);
     let div_limit = DIV_TOLERANCE * peak / g.dx();
     let (mut worst_flux, mut worst_div) = (0.0f64, 0.0f64);
     for step in 1..=steps {
-        let h = b.step(ctx).unwrap()[0];
+        let h = b.step().unwrap()[0];
         assert!(h.is_finite(), "{label}: step {step} not finite");
         let expected = inlet_flux(&g, b.inlet_u(0));
         let imbalance = (h.flux_max as f64 - h.flux_min as f64)
@@ -155,28 +155,28 @@ fn triphasic_conservation(sweep: &str) {
         ],
     )
     .unwrap();
-    let mut b = FluidBatch::new(&ctx, &r, 1).unwrap();
+    let mut b = GpuBatch::new(&ctx, &r, 1).unwrap();
     assert_eq!(b.pressure_sweep(), sweep);
-    check_conservation(&ctx, &mut b, 60, &format!("paper grid, {sweep} sweep"));
+    check_conservation(&mut b, 60, &format!("paper grid, {sweep} sweep"));
 }
 
 #[test]
 fn divergence_free_and_conservative_around_a_solid_body() {
     let (_lock, ctx) = common::gpu();
     let r = small_config(200, 20, &[]);
-    let mut b = FluidBatch::new(&ctx, &r, 1).unwrap();
+    let mut b = GpuBatch::new(&ctx, &r, 1).unwrap();
     let g = *b.grid();
     b.set_body(0, &disc(&g, 0.01, 0.001, 250e-6)).unwrap();
-    check_conservation(&ctx, &mut b, 36, "disc in a 20 mm channel");
+    check_conservation(&mut b, 36, "disc in a 20 mm channel");
     // The body is felt: the flow inside it is much slower than the flow beside it.
-    let f = b.fields(&ctx, 0).unwrap();
+    let f = b.fields(0).unwrap();
     let ux = f.ux_cells();
     let at = |x: f64, y: f64| ux[(y / g.dy()) as usize * g.nx + (x / g.dx()) as usize].abs();
     assert!(at(0.01, 0.001) < 0.2 * at(0.01, 0.0004).max(at(0.01, 0.0016)));
 }
 
 /// Sets up environment `e` of a batch as scenario `s` (0, 1, 2): different phases and bodies.
-fn scenario(b: &mut FluidBatch, e: usize, s: usize) {
+fn scenario(b: &mut GpuBatch, e: usize, s: usize) {
     let g = *b.grid();
     b.reset_env_with_phase(e, [0.0, 0.3, 0.02][s]).unwrap();
     if s == 2 {
@@ -190,7 +190,7 @@ fn environments_are_independent_and_nan_is_reported_per_environment() {
     let r = small_config(80, 12, &[]);
     let steps = 8;
     let nan_step = 3;
-    let mut batch = FluidBatch::new(&ctx, &r, 3).unwrap();
+    let mut batch = GpuBatch::new(&ctx, &r, 3).unwrap();
     for s in 0..3 {
         scenario(&mut batch, s, s);
     }
@@ -198,11 +198,11 @@ fn environments_are_independent_and_nan_is_reported_per_environment() {
     for step in 1..=steps {
         if step == nan_step + 1 {
             // Poison one face of environment 1 after step 3.
-            let mut u = batch.read_env(&ctx, FieldBinding::UIn, 1).unwrap();
+            let mut u = batch.read_env(FieldBinding::UIn, 1).unwrap();
             u[batch.grid().u_idx(40, 6)] = f32::NAN;
             batch.write_env(FieldBinding::UIn, 1, &u).unwrap();
         }
-        health.push(batch.step(&ctx).unwrap());
+        health.push(batch.step().unwrap());
     }
     for (k, h) in health.iter().enumerate() {
         let step = k + 1;
@@ -217,13 +217,13 @@ fn environments_are_independent_and_nan_is_reported_per_environment() {
         );
     }
     for s in [0, 2] {
-        let mut alone = FluidBatch::new(&ctx, &r, 1).unwrap();
+        let mut alone = GpuBatch::new(&ctx, &r, 1).unwrap();
         scenario(&mut alone, 0, s);
         for _ in 0..steps {
-            alone.step(&ctx).unwrap();
+            alone.step().unwrap();
         }
-        let a = alone.fields(&ctx, 0).unwrap();
-        let b = batch.fields(&ctx, s).unwrap();
+        let a = alone.fields(0).unwrap();
+        let b = batch.fields(s).unwrap();
         assert!(a.u_faces.iter().all(|x| x.is_finite()));
         assert_eq!(
             a.u_faces, b.u_faces,

@@ -4,7 +4,8 @@
 mod common;
 
 use fluxswarm_gpu::gpu::kernels::FieldBinding;
-use fluxswarm_gpu::sim::FluidBatch;
+use fluxswarm_gpu::sim::FlowBatch;
+use fluxswarm_gpu::sim::GpuBatch;
 
 #[test]
 fn a_profiled_step_is_a_plain_step_with_every_dispatch_timed() {
@@ -15,21 +16,22 @@ fn a_profiled_step_is_a_plain_step_with_every_dispatch_timed() {
         &[[3.0, 0.5], [4.5, 0.4]],
         &["time.substeps=3", "time.control_dt_s=0.00075"],
     );
-    let mut plain = FluidBatch::new(&ctx, &cfg, 2).unwrap();
-    let mut timed = FluidBatch::new(&ctx, &cfg, 2).unwrap();
+    let mut plain = GpuBatch::new(&ctx, &cfg, 2).unwrap();
+    let mut timed = GpuBatch::new(&ctx, &cfg, 2).unwrap();
     for b in [&mut plain, &mut timed] {
-        b.set_all_actions(&[[-1.0, 0.2], [0.5, 0.0], [0.0, -1.0], [1.0, 1.0]]);
+        b.set_all_actions(&[[-1.0, 0.2], [0.5, 0.0], [0.0, -1.0], [1.0, 1.0]])
+            .unwrap();
     }
-    plain.step(&ctx).unwrap();
-    let Some(kernels) = timed.profile_step(&ctx).unwrap() else {
+    plain.step().unwrap();
+    let Some(kernels) = timed.profile_step().unwrap() else {
         assert!(!timed.can_profile());
         eprintln!("adapter without timestamps inside passes: nothing to check");
         return;
     };
     for which in [FieldBinding::UIn, FieldBinding::VIn, FieldBinding::Pressure] {
         assert_eq!(
-            plain.read_all(&ctx, which).unwrap(),
-            timed.read_all(&ctx, which).unwrap(),
+            plain.read_all(which).unwrap(),
+            timed.read_all(which).unwrap(),
             "{which:?}"
         );
     }
@@ -62,7 +64,7 @@ fn traffic_counts_each_buffer_a_kernel_touches() {
     let (_lock, ctx) = common::gpu();
     let (nx, ny, e) = (90usize, 10usize, 3usize);
     let cfg = common::small_config(nx as u32, ny as u32, &[]);
-    let batch = FluidBatch::new(&ctx, &cfg, e).unwrap();
+    let batch = GpuBatch::new(&ctx, &cfg, e).unwrap();
     let bytes = batch.bytes_per_dispatch();
     let of = |k: &str| bytes.iter().find(|b| b.0 == k).unwrap().1;
     // diffuse reads u, v and writes w_u, w_v: 2 x (u + v) faces of 4 bytes; with members it

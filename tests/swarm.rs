@@ -9,7 +9,8 @@ use common::{Noise, max_diff, small_config};
 use fluxswarm_gpu::gpu::GpuContext;
 use fluxswarm_gpu::gpu::kernels::FieldBinding;
 use fluxswarm_gpu::gpu::params::{GpuMember, GpuMemberDiag};
-use fluxswarm_gpu::sim::{FluidBatch, Stage, cpu};
+use fluxswarm_gpu::sim::FlowBatch;
+use fluxswarm_gpu::sim::{GpuBatch, Stage, cpu};
 
 const R: f64 = 250e-6;
 const F_MAX: f64 = 850e-9;
@@ -22,13 +23,13 @@ fn swarm_batch(
     envs: usize,
     pos_mm: &[[f64; 2]],
     extra: &[&str],
-) -> FluidBatch {
-    FluidBatch::new(ctx, &common::swarm_config(nx, ny, pos_mm, extra), envs).unwrap()
+) -> GpuBatch {
+    GpuBatch::new(ctx, &common::swarm_config(nx, ny, pos_mm, extra), envs).unwrap()
 }
 
-fn read_members(ctx: &GpuContext, b: &FluidBatch) -> (Vec<GpuMember>, Vec<GpuMemberDiag>) {
-    let m = b.read_all(ctx, FieldBinding::Members).unwrap();
-    let d = b.read_all(ctx, FieldBinding::MemberDiag).unwrap();
+fn read_members(b: &GpuBatch) -> (Vec<GpuMember>, Vec<GpuMemberDiag>) {
+    let m = b.read_all(FieldBinding::Members).unwrap();
+    let d = b.read_all(FieldBinding::MemberDiag).unwrap();
     (
         bytemuck::cast_slice(&m).to_vec(),
         bytemuck::cast_slice(&d).to_vec(),
@@ -82,7 +83,7 @@ fn member_kernels_match_cpu() {
         all.extend(ms);
     }
     let actions: Vec<[f32; 2]> = (0..15).map(|_| [3.0 * n.next(), 3.0 * n.next()]).collect();
-    b.set_all_actions(&actions);
+    b.set_all_actions(&actions).unwrap();
     let u: Vec<f32> = n.vec(3 * g.n_u(), 0.05).iter().map(|x| x + 0.1).collect();
     let v = n.vec(3 * g.n_v(), 0.02);
     let p: Vec<f32> = (0..3 * g.n_cells())
@@ -91,11 +92,11 @@ fn member_kernels_match_cpu() {
     b.write_all(FieldBinding::UOut, &u);
     b.write_all(FieldBinding::VOut, &v);
     b.write_all(FieldBinding::Pressure, &p);
-    let boxes: Vec<f32> = b.read_all(&ctx, FieldBinding::SwarmBox).unwrap();
+    let boxes: Vec<f32> = b.read_all(FieldBinding::SwarmBox).unwrap();
     let boxes: Vec<[f32; 4]> = current_boxes(&boxes);
 
-    b.run_stages(&ctx, &[Stage::PaintBodies], 0, 1).unwrap();
-    let body = b.read_all(&ctx, FieldBinding::Body).unwrap();
+    b.run_stages(&[Stage::PaintBodies], 0, 1).unwrap();
+    let body = b.read_all(FieldBinding::Body).unwrap();
     let want: Vec<[f32; 4]> = cpu::paint_bodies(b.params(), &all, &boxes);
     close("body", &body, bytemuck::cast_slice(&want), 1e-5);
     assert!(
@@ -103,8 +104,8 @@ fn member_kernels_match_cpu() {
         "discs are painted"
     );
 
-    b.run_stages(&ctx, &[Stage::MoveMembers], 0, 1).unwrap();
-    let (gm, gd) = read_members(&ctx, &b);
+    b.run_stages(&[Stage::MoveMembers], 0, 1).unwrap();
+    let (gm, gd) = read_members(&b);
     let (cm, cd, cb) = cpu::move_members(b.params(), &all, &actions, &p, &u, &v);
     close(
         "positions",
@@ -124,7 +125,7 @@ fn member_kernels_match_cpu() {
         bytemuck::cast_slice(&cd),
         1e-4,
     );
-    let gb = b.read_all(&ctx, FieldBinding::SwarmBox).unwrap();
+    let gb = b.read_all(FieldBinding::SwarmBox).unwrap();
     close(
         "swarm box",
         &current_boxes(&gb).concat(),
@@ -172,8 +173,8 @@ fn forces_in(
         })
         .collect();
     b.write_all(FieldBinding::Pressure, &pres);
-    b.run_stages(ctx, &[Stage::MoveMembers], 0, 1).unwrap();
-    read_members(ctx, &b).1[0]
+    b.run_stages(&[Stage::MoveMembers], 0, 1).unwrap();
+    read_members(&b).1[0]
 }
 
 #[test]
@@ -288,8 +289,8 @@ fn contact_moves_force_between_members_and_creates_none() {
     )
     .unwrap();
     b.set_actions(0, &[[1.0, 0.0], [0.0, 0.0]]).unwrap();
-    b.run_stages(&ctx, &[Stage::MoveMembers], 0, 1).unwrap();
-    let (_, d) = read_members(&ctx, &b);
+    b.run_stages(&[Stage::MoveMembers], 0, 1).unwrap();
+    let (_, d) = read_members(&b);
     let f = F_MAX as f32;
     assert!(
         (d[1].contact[0] - f).abs() < 1e-3 * f && d[1].contact[1].abs() < 1e-6 * f,
@@ -329,9 +330,9 @@ fn contact_moves_force_between_members_and_creates_none() {
             ]
         })
         .collect();
-    b.set_all_actions(&inward);
-    b.run_stages(&ctx, &[Stage::MoveMembers], 0, 1).unwrap();
-    let (_, d) = read_members(&ctx, &b);
+    b.set_all_actions(&inward).unwrap();
+    b.run_stages(&[Stage::MoveMembers], 0, 1).unwrap();
+    let (_, d) = read_members(&b);
     let nonzero = d.iter().filter(|d| d.contact != [0.0, 0.0]).count();
     assert_eq!(nonzero, 5, "every member is pushed or pushes: {d:?}");
     for k in 0..2 {
@@ -361,15 +362,15 @@ fn a_held_member_throttles_the_flow_and_keeps_the_flux() {
             s.push("swarm.pinned=[0]");
             swarm_batch(&ctx, 200, 20, 1, &[[10.0, 1.0]], &s)
         } else {
-            FluidBatch::new(&ctx, &small_config(200, 20, &refs), 1).unwrap()
+            GpuBatch::new(&ctx, &small_config(200, 20, &refs), 1).unwrap()
         };
         let g = *b.grid();
         let mut worst = 0.0f32;
         for _ in 0..40 {
-            let h = b.step(&ctx).unwrap()[0];
+            let h = b.step().unwrap()[0];
             worst = worst.max((h.flux_max - h.flux_min) / h.inlet_flux.abs());
         }
-        let f = b.fields(&ctx, 0).unwrap();
+        let f = b.fields(0).unwrap();
         let ux = f.ux_cells();
         let i = 100; // the member's column
         let gap = (0..g.ny)
@@ -400,7 +401,7 @@ fn a_passive_member_drifts_downstream_slower_than_the_fluid() {
     let mut b = swarm_batch(&ctx, 200, 20, 1, &[[5.0, 1.0]], &refs);
     let mut vx = Vec::new();
     for _ in 0..60 {
-        let h = b.step(&ctx).unwrap()[0];
+        let h = b.step().unwrap()[0];
         assert!(h.is_finite());
         let m = b.members()[0];
         assert!(m.pos[1] >= R as f32 * 0.999 && m.pos[1] <= 0.002 - R as f32 * 0.999);
@@ -439,7 +440,7 @@ fn members_pushed_together_never_overlap() {
         .unwrap();
     let mut touched = false;
     for _ in 0..60 {
-        b.step(&ctx).unwrap();
+        b.step().unwrap();
         let m = b.members();
         for i in 0..3 {
             for j in 0..i {
@@ -473,12 +474,12 @@ fn whole_control_step_with_a_swarm_matches_cpu() {
     let actions: Vec<[f32; 2]> = (0..2 * n)
         .map(|k| [-1.0 + 0.3 * k as f32, 0.5 - 0.2 * k as f32])
         .collect();
-    b.set_all_actions(&actions);
+    b.set_all_actions(&actions).unwrap();
     let cpu_start = b.members().to_vec();
-    let read = |w| b.read_all(&ctx, w).unwrap();
+    let read = |w| b.read_all(w).unwrap();
     let quads =
         |v: Vec<f32>| -> Vec<[f32; 4]> { v.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect() };
-    let mut reference = cpu::CpuBatch {
+    let mut reference = cpu::BatchState {
         params: *b.params(),
         scheme: fluxswarm_gpu::config::Advection::Maccormack,
         poisson: read(FieldBinding::Poisson),
@@ -494,9 +495,9 @@ fn whole_control_step_with_a_swarm_matches_cpu() {
     let inlet: Vec<f32> = (0..2)
         .flat_map(|_| (0..4).map(|s| b.waveform().at((s as f64 + 1.0) * 0.001 / 4.0) as f32))
         .collect();
-    b.step(&ctx).unwrap();
+    b.step().unwrap();
     reference.step(&inlet);
-    let read = |w| b.read_all(&ctx, w).unwrap();
+    let read = |w| b.read_all(w).unwrap();
     close("u", &read(FieldBinding::UIn), &reference.u, 1e-4);
     close("v", &read(FieldBinding::VIn), &reference.v, 1e-4);
     close("p", &read(FieldBinding::Pressure), &reference.p, 1e-4);
@@ -523,8 +524,8 @@ fn paint_clears_where_the_swarm_was_and_nothing_beyond() {
     let (_lock, ctx) = common::gpu();
     let at_a = [[1.5, 0.5], [2.0, 0.8]];
     let b = swarm_batch(&ctx, 60, 14, 1, &at_a, &[]);
-    b.run_stages(&ctx, &[Stage::PaintBodies], 0, 1).unwrap(); // full paint at A
-    let raw_box = b.read_all(&ctx, FieldBinding::SwarmBox).unwrap();
+    b.run_stages(&[Stage::PaintBodies], 0, 1).unwrap(); // full paint at A
+    let raw_box = b.read_all(FieldBinding::SwarmBox).unwrap();
     let box_a = current_boxes(&raw_box)[0];
     // The swarm now at B, 2.5 mm downstream; the box to clear is A's.
     let at_b = [
@@ -538,12 +539,12 @@ fn paint_clears_where_the_swarm_was_and_nothing_beyond() {
     let box_b = [4.0e-3, 4.5e-3, 0.5e-3, 0.8e-3];
     b.write_all(FieldBinding::SwarmBox, &[box_b, box_a].concat());
     // A marker far from both boxes must survive: the paint does not visit it.
-    let mut body = b.read_all(&ctx, FieldBinding::Body).unwrap();
+    let mut body = b.read_all(FieldBinding::Body).unwrap();
     let far = 13 * 60 + 58; // cell (58, 13), 5.8 mm
     body[4 * far] = 0.25;
     b.write_all(FieldBinding::Body, &body);
-    b.run_stages(&ctx, &[Stage::PaintBodies], 0, 1).unwrap();
-    let got = b.read_all(&ctx, FieldBinding::Body).unwrap();
+    b.run_stages(&[Stage::PaintBodies], 0, 1).unwrap();
+    let got = b.read_all(FieldBinding::Body).unwrap();
     let mut want: Vec<f32> = cpu::paint_bodies(b.params(), &at_b, &[box_b]).concat();
     want[4 * far] = 0.25;
     close("body after the jump", &got, &want, 1e-6);

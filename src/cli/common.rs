@@ -37,6 +37,46 @@ pub fn runs_on(opened: &Opened) -> String {
     format!("{}; {}", opened.batch.describe(), opened.why)
 }
 
+/// Keys a run saved with its checkpoint may still change: how the control step runs, not what
+/// it computes (the backends agree within the kernel tests' tolerance).
+pub const RUN_KEYS: [&str; 2] = ["solver.backend", "solver.pressure_sweep"];
+
+/// Applies `--set` overrides of [`RUN_KEYS`] to a saved configuration (a resumed run, a
+/// trained policy); any other key is an error that says why.
+pub fn apply_run_sets(resolved: &mut Resolved, sets: &[String], what: &str) -> anyhow::Result<()> {
+    for set in sets {
+        let (key, value) = set.split_once('=').unwrap_or((set.as_str(), ""));
+        let value = value.trim().trim_matches('"');
+        match key.trim() {
+            "solver.backend" => {
+                resolved.config.solver.backend = match value {
+                    "auto" => fluxswarm_gpu::config::Backend::Auto,
+                    "adapter" => fluxswarm_gpu::config::Backend::Adapter,
+                    "native" => fluxswarm_gpu::config::Backend::Native,
+                    other => {
+                        anyhow::bail!("--set solver.backend={other}: use auto, adapter or native")
+                    }
+                }
+            }
+            "solver.pressure_sweep" => {
+                resolved.config.solver.pressure_sweep = match value {
+                    "auto" => fluxswarm_gpu::config::PressureSweep::Auto,
+                    "sequential" => fluxswarm_gpu::config::PressureSweep::Sequential,
+                    "scan" => fluxswarm_gpu::config::PressureSweep::Scan,
+                    other => anyhow::bail!(
+                        "--set solver.pressure_sweep={other}: use auto, sequential or scan"
+                    ),
+                }
+            }
+            other => anyhow::bail!(
+                "{what} runs in the configuration saved with it, which `--set {other}=...` would change: drop --config/--set for it (only {} may be set: they change how the step runs, not what it computes)",
+                RUN_KEYS.join(" and ")
+            ),
+        }
+    }
+    Ok(())
+}
+
 impl ConfigArgs {
     /// Loads and validates the configuration (before any GPU work).
     pub fn load(&self) -> anyhow::Result<Resolved> {

@@ -37,13 +37,17 @@ pub struct EvalArgs {
     pub gif: bool,
     #[arg(long, value_enum, default_value_t = AdapterChoice::Auto)]
     pub adapter: AdapterChoice,
+    /// How the step runs: `--set solver.backend=auto|adapter|native` (or
+    /// `solver.pressure_sweep=...`) over the checkpoint's configuration; nothing else.
+    #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
+    pub sets: Vec<String>,
 }
 
 pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     rollout::run(RolloutArgs {
         common: ConfigArgs {
             config: None,
-            sets: Vec::new(),
+            sets: args.sets,
             adapter: args.adapter,
         },
         policy: args.checkpoint.to_string_lossy().into_owned(),

@@ -103,12 +103,13 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
             if !path.exists() {
                 bail!("{e}, or the path of a trained checkpoint");
             }
-            if args.common.config.is_some() || !args.common.sets.is_empty() {
+            if args.common.config.is_some() {
                 bail!(
-                    "a trained policy runs in the configuration it was trained with (saved in its checkpoint): drop --config/--set"
+                    "a trained policy runs in the configuration it was trained with (saved in its checkpoint): drop --config"
                 );
             }
-            let (learner, resolved) = load_trained(path, args.seed)?;
+            let (learner, mut resolved) = load_trained(path, args.seed)?;
+            super::common::apply_run_sets(&mut resolved, &args.common.sets, "a trained policy")?;
             let policy = Policy::Trained {
                 learner: Box::new(learner),
                 deterministic: args.deterministic,
@@ -288,16 +289,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
                 &actions[e * n..(e + 1) * n],
             )?;
             if e == 0 && frame_due(k) {
-                write_frame(
-                    &env,
-                    &out,
-                    step.episode[e],
-                    k,
-                    ms,
-                    fs,
-                    f_max,
-                    &resolved,
-                )?;
+                write_frame(&env, &out, step.episode[e], k, ms, fs, f_max, &resolved)?;
             }
             if let Some(s) = &step.episodes[e]
                 && finished < args.episodes
@@ -325,16 +317,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
                         &zero_actions,
                     )?;
                     if e == 0 && frame_due(0) {
-                        write_frame(
-                            &env,
-                            &out,
-                            next,
-                            0,
-                            &ms,
-                            &zero_forces,
-                            f_max,
-                            &resolved,
-                        )?;
+                        write_frame(&env, &out, next, 0, &ms, &zero_forces, f_max, &resolved)?;
                     }
                 }
             }

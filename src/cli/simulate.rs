@@ -174,12 +174,7 @@ impl<'a> Writer<'a> {
         })
     }
 
-    fn record(
-        &mut self,
-        batch: &dyn FlowBatch,
-        step: u64,
-        h: &EnvHealth,
-    ) -> anyhow::Result<()> {
+    fn record(&mut self, batch: &dyn FlowBatch, step: u64, h: &EnvHealth) -> anyhow::Result<()> {
         let e = self.args.env;
         writeln!(
             self.summary,

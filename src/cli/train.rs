@@ -267,7 +267,12 @@ fn fresh_plan(args: &mut TrainArgs) -> anyhow::Result<Plan> {
 fn open_checkpoint(dir: &Path, args: &TrainArgs) -> anyhow::Result<(PathBuf, Archive)> {
     let c = &args.common;
     let mut given = Vec::new();
-    if c.config.is_some() || !c.sets.is_empty() {
+    let run_key = |s: &String| {
+        super::common::RUN_KEYS
+            .iter()
+            .any(|k| s.trim_start().starts_with(&format!("{k}=")))
+    };
+    if c.config.is_some() || !c.sets.iter().all(run_key) {
         given.push("--config/--set");
     }
     for (flag, on) in [
@@ -282,7 +287,7 @@ fn open_checkpoint(dir: &Path, args: &TrainArgs) -> anyhow::Result<(PathBuf, Arc
     }
     if !given.is_empty() {
         bail!(
-            "--resume continues a run as it was started; {} cannot change it (only --steps, --adapter and --checkpoint-every can): drop {}, or start a new run without --resume",
+            "--resume continues a run as it was started; {} cannot change it (only --steps, --adapter, --checkpoint-every and --set solver.backend=... / solver.pressure_sweep=... can): drop {}, or start a new run without --resume",
             given.join(", "),
             if given.len() > 1 { "them" } else { "it" }
         );
@@ -314,8 +319,9 @@ fn open_checkpoint(dir: &Path, args: &TrainArgs) -> anyhow::Result<(PathBuf, Arc
 }
 
 fn resume_plan(dir: &Path, archive: &Archive, args: &TrainArgs) -> anyhow::Result<Plan> {
-    let resolved = Config::from_saved(archive.meta("config")?)
+    let mut resolved = Config::from_saved(archive.meta("config")?)
         .with_context(|| format!("the configuration saved in {}", archive.path().display()))?;
+    super::common::apply_run_sets(&mut resolved, &args.common.sets, "a resumed run")?;
     let steps = match args.steps {
         Some(s) => s,
         None => archive.meta_parse("steps")?,

@@ -129,7 +129,11 @@ pub struct SwarmEnv {
 
 impl SwarmEnv {
     /// The environments of `batch` (made for `resolved`), seeded with `seed`.
-    pub fn new(batch: Box<dyn FlowBatch>, resolved: &Resolved, seed: u64) -> Result<Self, SimError> {
+    pub fn new(
+        batch: Box<dyn FlowBatch>,
+        resolved: &Resolved,
+        seed: u64,
+    ) -> Result<Self, SimError> {
         let n = batch.n_members();
         let n_env = batch.n_env();
         Ok(Self {

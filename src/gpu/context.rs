@@ -12,7 +12,8 @@ pub enum GpuError {
         "no {wanted} adapter found (adapters seen: {seen}). On Debian/Ubuntu install the software \
          Vulkan driver with `bash scripts/install-vulkan.sh` (or `apt-get install libvulkan1 \
          mesa-vulkan-drivers`); with a GPU, install its vendor's Vulkan driver. `--adapter auto` \
-         takes whatever is there."
+         takes whatever is there; `--set solver.backend=native` (or `auto`) runs the CPU backend, \
+         which needs no adapter."
     )]
     NoAdapter { wanted: AdapterChoice, seen: String },
     #[error("the adapter {adapter} refused to create a device: {message}")]
@@ -143,13 +144,19 @@ impl GpuContext {
     }
 }
 
-/// Every adapter of every backend compiled in.
+/// Every adapter of every backend compiled in (or of those WGPU_BACKEND names).
 pub fn enumerate_adapters() -> Vec<wgpu::Adapter> {
+    // WGPU_BACKEND (e.g. `vulkan`, `gl`) narrows the backends searched (read here: wgpu's own
+    // `with_env` needs its `std` feature, which the build leaves off).
+    let backends = match std::env::var("WGPU_BACKEND") {
+        Ok(list) if !list.trim().is_empty() => wgpu::Backends::from_comma_list(&list),
+        _ => wgpu::Backends::all(),
+    };
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
-        backends: wgpu::Backends::all().with_env(),
+        backends,
         ..wgpu::InstanceDescriptor::new_without_display_handle()
     });
-    pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()))
+    pollster::block_on(instance.enumerate_adapters(backends))
 }
 
 pub fn describe(info: &wgpu::AdapterInfo) -> String {

@@ -203,7 +203,12 @@ impl BatchCore {
 /// (x_min, x_max, y_min, y_max) of the members' centres.
 pub fn swarm_box(members: &[GpuMember]) -> [f32; 4] {
     members.iter().fold(
-        [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY],
+        [
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ],
         |b, m| {
             [
                 b[0].min(m.pos[0]),
@@ -255,8 +260,7 @@ pub trait FlowBatch: Send {
     /// The whole batch's state (a full read-back on the GPU; not for the stepping loop).
     fn state(&self) -> Result<BatchState, SimError>;
     /// Overwrites the whole batch's state and the members' last forces.
-    fn set_state(&mut self, state: &BatchState, forces: &[GpuMemberDiag])
-    -> Result<(), SimError>;
+    fn set_state(&mut self, state: &BatchState, forces: &[GpuMemberDiag]) -> Result<(), SimError>;
 
     /// The WGSL batch behind this one, for what only it has (per-stage timing, profiling).
     fn as_gpu_mut(&mut self) -> Option<&mut super::GpuBatch> {
@@ -346,9 +350,19 @@ pub trait FlowBatch: Send {
         put(archive, "u", c.grid.n_u(), &s.u);
         put(archive, "v", c.grid.n_v(), &s.v);
         put(archive, "p", c.grid.n_cells(), &s.p);
-        put(archive, "body", 4 * c.grid.n_cells(), bytemuck::cast_slice(&s.body));
+        put(
+            archive,
+            "body",
+            4 * c.grid.n_cells(),
+            bytemuck::cast_slice(&s.body),
+        );
         put(archive, "members", 8 * n, bytemuck::cast_slice(&s.members));
-        put(archive, "member_diag", 12 * n, bytemuck::cast_slice(self.member_forces()));
+        put(
+            archive,
+            "member_diag",
+            12 * n,
+            bytemuck::cast_slice(self.member_forces()),
+        );
         put(archive, "thrust", 2 * n, bytemuck::cast_slice(&s.actions));
         // The current box, then the box of the last paint (unknown here: "clear everywhere").
         let all = f32::MAX;

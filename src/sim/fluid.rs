@@ -319,7 +319,6 @@ impl GpuBatch {
         })
     }
 
-
     fn create_buffers(
         ctx: &GpuContext,
         grid: &Grid,
@@ -467,7 +466,6 @@ impl GpuBatch {
         self.dispatches_per_substep() * self.core.substeps as u32 + 2
     }
 
-
     fn buffer(&self, which: FieldBinding) -> &wgpu::Buffer {
         let b = &self.buffers;
         match which {
@@ -525,10 +523,15 @@ impl GpuBatch {
         self.core.check_env(e)?;
         let bytes: &[u8] = bytemuck::cast_slice(data);
         let per_env = self.words_per_env(which) * 4;
-        BatchCore::check_len("values of one environment's buffer", bytes.len() / 4, per_env / 4)?;
-        self.ctx.queue
+        BatchCore::check_len(
+            "values of one environment's buffer",
+            bytes.len() / 4,
+            per_env / 4,
+        )?;
+        self.ctx
+            .queue
             .write_buffer(self.buffer(which), (e * per_env) as u64, bytes);
-                Ok(())
+        Ok(())
     }
 
     /// Overwrites environment e's part of a buffer (`UIn`/`VIn` are the current field).
@@ -538,7 +541,8 @@ impl GpuBatch {
 
     /// Overwrites a whole buffer (all environments).
     pub fn write_all(&self, which: FieldBinding, data: &[f32]) {
-        self.ctx.queue
+        self.ctx
+            .queue
             .write_buffer(self.buffer(which), 0, bytemuck::cast_slice(data));
     }
 
@@ -549,22 +553,25 @@ impl GpuBatch {
         } else {
             self.words_per_env(which) * self.core.n_env
         };
-        Ok(read_buffer(&self.ctx, self.buffer(which), 0, (words * 4) as u64)?)
+        Ok(read_buffer(
+            &self.ctx,
+            self.buffer(which),
+            0,
+            (words * 4) as u64,
+        )?)
     }
 
     /// The whole batch's current state as a [`BatchState`] (fields, body, members, raw actions,
     /// swarm boxes, Poisson tables): the starting point of the CPU twins and the native
     /// yardstick. A full read-back; not for the stepping loop.
     pub fn to_cpu(&self) -> Result<BatchState, SimError> {
-        self.cpu_batch_from(self.core.n_env, self.core.poisson.clone(), |w| self.read_all(w))
+        self.cpu_batch_from(self.core.n_env, self.core.poisson.clone(), |w| {
+            self.read_all(w)
+        })
     }
 
     /// Reads environment e's part of a buffer.
-    pub fn read_env(
-        &self,
-        which: FieldBinding,
-        e: usize,
-    ) -> Result<Vec<f32>, SimError> {
+    pub fn read_env(&self, which: FieldBinding, e: usize) -> Result<Vec<f32>, SimError> {
         self.core.check_env(e)?;
         let bytes = (self.words_per_env(which) * 4) as u64;
         Ok(read_buffer(
@@ -782,12 +789,7 @@ impl GpuBatch {
 
     /// Runs the given stages of substep `s` once on the current bind group, without swapping
     /// the velocity buffers (for kernel tests and timing by elimination).
-    pub fn run_stages(
-        &self,
-        stages: &[Stage],
-        s: usize,
-        repeats: usize,
-    ) -> Result<(), SimError> {
+    pub fn run_stages(&self, stages: &[Stage], s: usize, repeats: usize) -> Result<(), SimError> {
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         {
             let mut rec = Recorder::new(enc.begin_compute_pass(&Default::default()));
@@ -896,7 +898,8 @@ impl FlowBatch for GpuBatch {
     }
 
     fn fields(&self, e: usize) -> Result<Fields, SimError> {
-        let body: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&self.read_env(FieldBinding::Body, e)?);
+        let body: Vec<[f32; 4]> =
+            bytemuck::pod_collect_to_vec(&self.read_env(FieldBinding::Body, e)?);
         Ok(Fields::with_bodies(
             &self.core.grid,
             self.read_env(FieldBinding::UIn, e)?,
@@ -914,8 +917,16 @@ impl FlowBatch for GpuBatch {
         let (ne, n, g) = (self.core.n_env, self.core.n_members, self.core.grid);
         BatchCore::check_len("u faces of the batch", state.u.len(), ne * g.n_u())?;
         BatchCore::check_len("v faces of the batch", state.v.len(), ne * g.n_v())?;
-        BatchCore::check_len("pressure cells of the batch", state.p.len(), ne * g.n_cells())?;
-        BatchCore::check_len("body cells of the batch", state.body.len(), ne * g.n_cells())?;
+        BatchCore::check_len(
+            "pressure cells of the batch",
+            state.p.len(),
+            ne * g.n_cells(),
+        )?;
+        BatchCore::check_len(
+            "body cells of the batch",
+            state.body.len(),
+            ne * g.n_cells(),
+        )?;
         BatchCore::check_len("members of the batch", state.members.len(), ne * n)?;
         BatchCore::check_len("actions of the batch", state.actions.len(), ne * n)?;
         BatchCore::check_len("member forces of the batch", forces.len(), ne * n)?;

@@ -71,7 +71,11 @@ fn open_adapter(
     })
 }
 
-fn open_auto(resolved: &Resolved, n_env: usize, adapter: AdapterChoice) -> Result<Opened, SimError> {
+fn open_auto(
+    resolved: &Resolved,
+    n_env: usize,
+    adapter: AdapterChoice,
+) -> Result<Opened, SimError> {
     let found = catch_unwind(|| GpuContext::new(AdapterChoice::Gpu));
     match found {
         Ok(Ok(ctx)) => Ok(open_auto_on(&ctx, resolved, n_env, false)?),
@@ -199,7 +203,10 @@ pub fn self_check(ctx: &GpuContext, resolved: &Resolved, fault: bool) -> Result<
     cpu.step()?;
     let (g, c) = (gpu.state()?, cpu.state()?);
     let members = |s: &super::BatchState| -> Vec<f32> {
-        s.members.iter().flat_map(|m| [m.pos[0], m.pos[1], m.vel[0], m.vel[1]]).collect()
+        s.members
+            .iter()
+            .flat_map(|m| [m.pos[0], m.pos[1], m.vel[0], m.vel[1]])
+            .collect()
     };
     for (name, a, b) in [
         ("u", g.u.clone(), c.u.clone()),
@@ -208,10 +215,13 @@ pub fn self_check(ctx: &GpuContext, resolved: &Resolved, fault: bool) -> Result<
         ("members", members(&g), members(&c)),
     ] {
         let scale = b.iter().fold(0.0f32, |m, x| m.max(x.abs())).max(1e-30);
-        let diff = a
-            .iter()
-            .zip(&b)
-            .fold(0.0f32, |m, (x, y)| if (x - y).is_nan() { f32::INFINITY } else { m.max((x - y).abs()) });
+        let diff = a.iter().zip(&b).fold(0.0f32, |m, (x, y)| {
+            if (x - y).is_nan() {
+                f32::INFINITY
+            } else {
+                m.max((x - y).abs())
+            }
+        });
         if diff > SELF_CHECK_TOLERANCE * scale {
             return Err(SimError::SelfCheck(format!(
                 "after one control step {name} differs from the CPU step by {:.2e} of its largest value (tolerance {SELF_CHECK_TOLERANCE:e})",

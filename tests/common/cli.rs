@@ -3,14 +3,26 @@
 use std::process::{Command, Output};
 
 pub fn bin(args: &[&str]) -> Output {
+    bin_env(args, &[])
+}
+
+/// [`bin`] with extra environment variables (e.g. no Vulkan driver at all).
+pub fn bin_env(args: &[&str], vars: &[(&str, &str)]) -> Output {
     let _lock = super::gpu().0; // one GPU user at a time
     Command::new(env!("CARGO_BIN_EXE_fluxswarm-gpu"))
         .args(args)
         .env("NODEVICE_SELECT", "1")
         .env("RUST_LOG", "info")
+        .envs(vars.iter().copied())
         .output()
         .expect("running fluxswarm-gpu")
 }
+
+/// No Vulkan driver (the ICD list points at nothing) and no GL: wgpu finds no adapter at all.
+pub const NO_ADAPTER: &[(&str, &str)] = &[
+    ("VK_ICD_FILENAMES", "/nonexistent/icd.json"),
+    ("WGPU_BACKEND", "vulkan"),
+];
 
 pub fn text(o: &Output) -> String {
     format!(

@@ -112,3 +112,14 @@ pub fn swarm_config(nx: u32, ny: u32, pos_mm: &[[f64; 2]], extra: &[&str]) -> Re
     let refs: Vec<&str> = sets.iter().map(String::as_str).collect();
     small_config(nx, ny, &refs)
 }
+
+/// Swarm environments on the WGSL kernels of `ctx` (what the GPU tests exercise).
+pub fn gpu_env(
+    ctx: &GpuContext,
+    r: &Resolved,
+    n_env: usize,
+    seed: u64,
+) -> fluxswarm_gpu::env::SwarmEnv {
+    let batch = fluxswarm_gpu::sim::GpuBatch::new(ctx, r, n_env).unwrap();
+    fluxswarm_gpu::env::SwarmEnv::new(Box::new(batch), r, seed).unwrap()
+}

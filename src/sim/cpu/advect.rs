@@ -218,4 +218,3 @@ fn departures_v(
         }
     }
 }
-

@@ -71,10 +71,7 @@ impl FlowBatch for CpuBatch {
     }
 
     fn describe(&self) -> String {
-        format!(
-            "CPU backend, {} threads",
-            rayon::current_num_threads()
-        )
+        format!("CPU backend, {} threads", rayon::current_num_threads())
     }
 
     fn step(&mut self) -> Result<Vec<EnvHealth>, SimError> {
@@ -140,7 +137,11 @@ impl FlowBatch for CpuBatch {
         BatchCore::check_len("u faces", u.len(), g.n_u())?;
         BatchCore::check_len("v faces", v.len(), g.n_v())?;
         BatchCore::check_len("pressure cells", p.len(), g.n_cells())?;
-        let (su, sv, sp) = (self.span(e, g.n_u()), self.span(e, g.n_v()), self.span(e, g.n_cells()));
+        let (su, sv, sp) = (
+            self.span(e, g.n_u()),
+            self.span(e, g.n_v()),
+            self.span(e, g.n_cells()),
+        );
         self.state.u[su].copy_from_slice(u);
         self.state.v[sv].copy_from_slice(v);
         self.state.p[sp].copy_from_slice(p);
@@ -168,8 +169,16 @@ impl FlowBatch for CpuBatch {
         let (ne, n, g) = (self.core.n_env, self.core.n_members, self.core.grid);
         BatchCore::check_len("u faces of the batch", state.u.len(), ne * g.n_u())?;
         BatchCore::check_len("v faces of the batch", state.v.len(), ne * g.n_v())?;
-        BatchCore::check_len("pressure cells of the batch", state.p.len(), ne * g.n_cells())?;
-        BatchCore::check_len("body cells of the batch", state.body.len(), ne * g.n_cells())?;
+        BatchCore::check_len(
+            "pressure cells of the batch",
+            state.p.len(),
+            ne * g.n_cells(),
+        )?;
+        BatchCore::check_len(
+            "body cells of the batch",
+            state.body.len(),
+            ne * g.n_cells(),
+        )?;
         BatchCore::check_len("members of the batch", state.members.len(), ne * n)?;
         BatchCore::check_len("actions of the batch", state.actions.len(), ne * n)?;
         BatchCore::check_len("member forces of the batch", forces.len(), ne * n)?;

@@ -7,7 +7,13 @@
 use super::stencil::Dim;
 use crate::sim::EnvHealth;
 
-pub(crate) fn diagnostics(d: &Dim, u: &[f32], v: &[f32], pres: &[f32], divstar: &[f32]) -> EnvHealth {
+pub(crate) fn diagnostics(
+    d: &Dim,
+    u: &[f32],
+    v: &[f32],
+    pres: &[f32],
+    divstar: &[f32],
+) -> EnvHealth {
     let (nx, ny, p) = (d.nx, d.ny, &d.p);
     let (row, finite) = (nx + 1, |x: f32| x.is_finite());
     let mut h = EnvHealth {
@@ -23,8 +29,8 @@ pub(crate) fn diagnostics(d: &Dim, u: &[f32], v: &[f32], pres: &[f32], divstar: 
             h.max_speed = h.max_speed.max(uc.abs());
             bad += !finite(uc) as u32;
             if i < nx {
-                let div = (u[j * row + i + 1] - uc) / p.dx
-                    + (v[(j + 1) * nx + i] - v[j * nx + i]) / p.dy;
+                let div =
+                    (u[j * row + i + 1] - uc) / p.dx + (v[(j + 1) * nx + i] - v[j * nx + i]) / p.dy;
                 h.max_div = h.max_div.max(div.abs());
                 let vc = v[j * nx + i];
                 h.max_speed = h.max_speed.max(vc.abs());

@@ -212,7 +212,12 @@ pub(crate) fn move_members(
     if n > 0 {
         let mut b = [pos[0][0], pos[0][0], pos[0][1], pos[0][1]];
         for q in &pos[1..] {
-            b = [b[0].min(q[0]), b[1].max(q[0]), b[2].min(q[1]), b[3].max(q[1])];
+            b = [
+                b[0].min(q[0]),
+                b[1].max(q[0]),
+                b[2].min(q[1]),
+                b[3].max(q[1]),
+            ];
         }
         *bx = b;
     }

@@ -150,7 +150,16 @@ impl BatchState {
         envs.into_par_iter()
             .zip(scratch.par_iter_mut())
             .enumerate()
-            .map(|(e, (env, s))| step_env(&d, scheme, poisson, env, &inlet[e * subs..(e + 1) * subs], s))
+            .map(|(e, (env, s))| {
+                step_env(
+                    &d,
+                    scheme,
+                    poisson,
+                    env,
+                    &inlet[e * subs..(e + 1) * subs],
+                    s,
+                )
+            })
             .collect()
     }
 }
@@ -174,7 +183,17 @@ fn step_env(
             members::paint_bodies(d, env.members, *env.bx, env.body);
         }
         let (u_out, v_out) = (&mut s.u_out, &mut s.v_out);
-        advect::advect(d, scheme, env.u, env.v, env.body, centre, &mut s.advect, u_out, v_out);
+        advect::advect(
+            d,
+            scheme,
+            env.u,
+            env.v,
+            env.body,
+            centre,
+            &mut s.advect,
+            u_out,
+            v_out,
+        );
         pressure::rhs(d, poisson, u_out, v_out, &mut s.modes, env.divstar);
         pressure::solve(d, poisson, &mut s.modes);
         pressure::back(d, poisson, &s.modes, env.p);

@@ -87,7 +87,12 @@ pub fn project(
     for e in 0..p.n_env as usize {
         let pe = &mut pres[e * nc..(e + 1) * nc];
         pressure::back(&d, poisson, &modes[e * nc..(e + 1) * nc], pe);
-        proj::project(&d, pe, &mut u[e * nu..(e + 1) * nu], &mut v[e * nv..(e + 1) * nv]);
+        proj::project(
+            &d,
+            pe,
+            &mut u[e * nu..(e + 1) * nu],
+            &mut v[e * nv..(e + 1) * nv],
+        );
     }
     pres
 }

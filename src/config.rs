@@ -22,9 +22,9 @@ pub const MAX_CFL: f64 = 1.0;
 /// paper's setup is exactly CFL = 1, which in f64 evaluates to 1 + 2e-16).
 pub const CFL_ROUNDING_ALLOWANCE: f64 = 1e-9;
 
-/// Largest ny: the pressure kernels keep one column in workgroup memory (`MAX_NY` in
-/// `shaders/pressure_rhs.wgsl`).
-pub const MAX_NY: u32 = 64;
+/// Largest ny on the CPU backend (the WGSL pressure kernels hold fewer per column:
+/// `sim::fluid::WGSL_MAX_NY`).
+pub const MAX_NY: u32 = 256;
 
 /// Keys that may be absent from the default configuration but can be set.
 const OPTIONAL_KEYS: &[(&str, &str)] = &[("inlet", "csv")];
@@ -360,8 +360,8 @@ impl Config {
                 "domain.ny",
                 d.ny,
                 format!(
-                    "is above {MAX_NY}, the most cells across the channel the pressure kernels \
-                     hold per column: use a coarser grid across the height"
+                    "is above {MAX_NY}, the most cells across the channel the solver holds per \
+                     column: use a coarser grid across the height"
                 ),
             ));
         }

@@ -217,8 +217,8 @@ fn waveform_from_csv_relative_to_config_file() {
 #[test]
 fn too_many_cells_across() {
     assert_contains(
-        &err(&["domain.ny=65", "domain.height_m=0.0065"]),
-        &["`domain.ny` = 65", "above 64"],
+        &err(&["domain.ny=257", "domain.height_m=0.0257"]),
+        &["`domain.ny` = 257", "above 256"],
     );
 }
 

@@ -371,3 +371,23 @@ fn the_native_backend_needs_no_adapter() {
     assert_eq!(opened.batch.backend_name(), "native");
     assert!(opened.batch.step().unwrap().iter().all(|h| !h.diverged()));
 }
+
+/// Wider vessels: ny up to 256 runs on the CPU backend; the kernels refuse what their pressure
+/// stage cannot hold with an error that names the fix, and `auto` takes the CPU backend.
+#[test]
+fn tall_grids_run_on_the_cpu_and_the_kernels_refuse_them_clearly() {
+    let (_lock, ctx) = common::gpu();
+    let r = small_config(24, 130, &["time.substeps=40", "time.control_dt_s=0.001"]);
+    let mut cpu = CpuBatch::new(&r, 1).unwrap();
+    assert!(!cpu.step().unwrap()[0].diverged());
+    let err = GpuBatch::new(&ctx, &r, 1)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        err.contains("at most 64") && err.contains("solver.backend=native"),
+        "{err}"
+    );
+    let opened = open::open_auto_on(&ctx, &r, 1, false).unwrap();
+    assert_eq!(opened.batch.backend_name(), "native");
+}

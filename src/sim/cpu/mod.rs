@@ -67,6 +67,10 @@ pub struct Scratch {
     u_out: Vec<f32>,
     v_out: Vec<f32>,
     modes: Vec<f32>,
+    /// A block of columns of the pressure transforms, [ny][BLOCK].
+    columns: Vec<f32>,
+    /// The FFT plans of the y-transforms on tall grids.
+    fast_y: Option<pressure::FastY>,
 }
 
 /// One environment's part of a [`BatchState`], borrowed for its step.
@@ -194,9 +198,19 @@ fn step_env(
             u_out,
             v_out,
         );
-        pressure::rhs(d, poisson, u_out, v_out, &mut s.modes, env.divstar);
+        let (columns, fast) = (&mut s.columns, &mut s.fast_y);
+        pressure::rhs(
+            d,
+            poisson,
+            u_out,
+            v_out,
+            &mut s.modes,
+            env.divstar,
+            columns,
+            fast,
+        );
         pressure::solve(d, poisson, &mut s.modes);
-        pressure::back(d, poisson, &s.modes, env.p);
+        pressure::back(d, poisson, &s.modes, env.p, columns, fast);
         project::project(d, env.p, u_out, v_out);
         env.u.copy_from_slice(u_out);
         env.v.copy_from_slice(v_out);

@@ -10,17 +10,79 @@
 //! Mirrors `pressure_rhs.wgsl`, `pressure_solve.wgsl` and `pressure_back` in `project.wgsl`.
 //! Shapes: u* [ny][nx+1], v* [ny+1][nx], modes and p [ny][nx] (modes[k][i]), divstar [nx],
 //! poisson [ny*ny | ny*nx | ny*nx]. Columns are handled `BLOCK` at a time so that their sums
-//! run side by side in vector registers, each column's in the same order as the kernels.
+//! run side by side in vector registers, each column's in the same order as the kernels; the
+//! block's column values live in a scratch of ny x BLOCK. From [`FAST_Y_MIN`] cells across,
+//! the dense y-transform (ny^2/2 multiply-adds per column each way) gives way to FFT-based
+//! DCT-II / DCT-III (`rustdct`, O(ny log ny)), equal to it within f32 round-off (tested).
+
+use std::sync::Arc;
+
+use rustdct::{Dct2, Dct3, DctPlanner};
 
 use super::stencil::Dim;
 
 /// Columns handled together by the column transforms.
 const BLOCK: usize = 8;
 
-/// Largest ny the fixed-size column buffers hold (`domain.ny` is validated against it).
-const MAX_NY: usize = crate::config::MAX_NY as usize;
-
 /// Divergence of u*, its column maxima into `divstar`, and the y-cosine modes of rho/dt div u*.
+/// The y-transforms of tall columns by FFT: DCT-II X_k = sum_j x_j cos(pi k (j + 1/2) / ny)
+/// and DCT-III x_j = X_0 / 2 + sum_k>0 X_k cos(pi k (j + 1/2) / ny), scaled by the orthonormal
+/// weights c_0 = sqrt(1/ny), c_k = sqrt(2/ny) of Q.
+#[derive(Clone)]
+pub(crate) struct FastY {
+    dct2: Arc<dyn Dct2<f32>>,
+    dct3: Arc<dyn Dct3<f32>>,
+    weight: Vec<f32>,
+    buf: Vec<f32>,
+    scratch: Vec<f32>,
+}
+
+impl std::fmt::Debug for FastY {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "FastY({})", self.weight.len())
+    }
+}
+
+impl FastY {
+    pub(crate) fn new(ny: usize) -> Self {
+        let mut planner = DctPlanner::new();
+        let (dct2, dct3) = (planner.plan_dct2(ny), planner.plan_dct3(ny));
+        let scratch = vec![0.0; dct2.get_scratch_len().max(dct3.get_scratch_len())];
+        let weight = (0..ny)
+            .map(|k| ((if k == 0 { 1.0 } else { 2.0 }) / ny as f64).sqrt() as f32)
+            .collect();
+        Self {
+            dct2,
+            dct3,
+            weight,
+            buf: vec![0.0; ny],
+            scratch,
+        }
+    }
+
+    fn ny(&self) -> usize {
+        self.weight.len()
+    }
+}
+
+/// Cells across the channel from which the FFT-based y-transforms replace the dense ones
+/// (measured: README "Grid"; below it the dense sums are as fast or faster).
+pub const FAST_Y_MIN: usize = 192;
+
+/// The fast transforms for this grid, if it is tall enough to use them (kept in `slot`).
+pub(crate) fn fast_y<'a>(d: &Dim, slot: &'a mut Option<FastY>) -> Option<&'a mut FastY> {
+    if d.ny < FAST_Y_MIN {
+        return None;
+    }
+    if slot.as_ref().is_none_or(|f| f.ny() != d.ny) {
+        *slot = Some(FastY::new(d.ny));
+    }
+    slot.as_mut()
+}
+
+/// `column` is scratch, resized here to ny x `BLOCK` values; `fast` holds the FFT plans of
+/// tall grids.
+#[allow(clippy::too_many_arguments)] // inputs, outputs and scratch of the stage
 pub(crate) fn rhs(
     d: &Dim,
     poisson: &[f32],
@@ -28,19 +90,44 @@ pub(crate) fn rhs(
     v: &[f32],
     modes: &mut [f32],
     divstar: &mut [f32],
+    column: &mut Vec<f32>,
+    fast: &mut Option<FastY>,
 ) {
+    column.resize(d.ny * BLOCK, 0.0);
+    let mut fast = fast_y(d, fast);
     let full = d.nx / BLOCK * BLOCK;
     for i0 in (0..full).step_by(BLOCK) {
-        rhs_columns::<BLOCK>(d, poisson, u, v, modes, divstar, i0);
+        rhs_columns::<BLOCK>(
+            d,
+            poisson,
+            u,
+            v,
+            modes,
+            divstar,
+            column,
+            i0,
+            fast.as_deref_mut(),
+        );
     }
     for i0 in full..d.nx {
-        rhs_columns::<1>(d, poisson, u, v, modes, divstar, i0);
+        rhs_columns::<1>(
+            d,
+            poisson,
+            u,
+            v,
+            modes,
+            divstar,
+            column,
+            i0,
+            fast.as_deref_mut(),
+        );
     }
 }
 
 /// [`rhs`] for columns i0 .. i0 + N.
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // rows and lanes of parallel arrays, indexed together
+#[allow(clippy::too_many_arguments)]
 fn rhs_columns<const N: usize>(
     d: &Dim,
     poisson: &[f32],
@@ -48,13 +135,15 @@ fn rhs_columns<const N: usize>(
     v: &[f32],
     modes: &mut [f32],
     divstar: &mut [f32],
+    scratch: &mut [f32],
     i0: usize,
+    fast: Option<&mut FastY>,
 ) {
     let (nx, ny, p) = (d.nx, d.ny, &d.p);
     let row = nx + 1;
     let half = ny / 2;
     let scale = p.rho / p.dt;
-    let mut column = [[0.0f32; N]; MAX_NY];
+    let (column, _) = scratch[..ny * N].as_chunks_mut::<N>();
     let mut dmax = [0.0f32; N];
     for j in 0..ny {
         let (ua, va, vb) = (j * row + i0, j * nx + i0, (j + 1) * nx + i0);
@@ -65,6 +154,18 @@ fn rhs_columns<const N: usize>(
         }
     }
     divstar[i0..i0 + N].copy_from_slice(&dmax);
+    if let Some(f) = fast {
+        for b in 0..N {
+            for j in 0..ny {
+                f.buf[j] = column[j][b];
+            }
+            f.dct2.process_dct2_with_scratch(&mut f.buf, &mut f.scratch);
+            for k in 0..ny {
+                modes[k * nx + i0 + b] = f.buf[k] * f.weight[k] * scale;
+            }
+        }
+        return;
+    }
     for j in 0..half {
         for b in 0..N {
             let (lo, hi) = (column[j][b], column[ny - 1 - j][b]);
@@ -128,14 +229,40 @@ pub(crate) fn solve(d: &Dim, poisson: &[f32], modes: &mut [f32]) {
     }
 }
 
-/// The pressure p [ny][nx] from its modes.
-pub(crate) fn back(d: &Dim, poisson: &[f32], modes: &[f32], pres: &mut [f32]) {
+/// The pressure p [ny][nx] from its modes (`mode` is scratch, as in [`rhs`]).
+pub(crate) fn back(
+    d: &Dim,
+    poisson: &[f32],
+    modes: &[f32],
+    pres: &mut [f32],
+    mode: &mut Vec<f32>,
+    fast: &mut Option<FastY>,
+) {
+    if let Some(f) = fast_y(d, fast) {
+        let (nx, ny) = (d.nx, d.ny);
+        for i in 0..nx {
+            for k in 0..ny {
+                let w = if k == 0 {
+                    2.0 * f.weight[0]
+                } else {
+                    f.weight[k]
+                };
+                f.buf[k] = modes[k * nx + i] * w;
+            }
+            f.dct3.process_dct3_with_scratch(&mut f.buf, &mut f.scratch);
+            for j in 0..ny {
+                pres[j * nx + i] = f.buf[j];
+            }
+        }
+        return;
+    }
+    mode.resize(d.ny * BLOCK, 0.0);
     let full = d.nx / BLOCK * BLOCK;
     for i0 in (0..full).step_by(BLOCK) {
-        back_columns::<BLOCK>(d, poisson, modes, pres, i0);
+        back_columns::<BLOCK>(d, poisson, modes, pres, mode, i0);
     }
     for i0 in full..d.nx {
-        back_columns::<1>(d, poisson, modes, pres, i0);
+        back_columns::<1>(d, poisson, modes, pres, mode, i0);
     }
 }
 
@@ -146,10 +273,11 @@ fn back_columns<const N: usize>(
     poisson: &[f32],
     modes: &[f32],
     pres: &mut [f32],
+    scratch: &mut [f32],
     i0: usize,
 ) {
     let (nx, ny) = (d.nx, d.ny);
-    let mut mode = [[0.0f32; N]; MAX_NY];
+    let (mode, _) = scratch[..ny * N].as_chunks_mut::<N>();
     for (k, m) in mode[..ny].iter_mut().enumerate() {
         m.copy_from_slice(&modes[k * nx + i0..k * nx + i0 + N]);
     }
@@ -176,5 +304,94 @@ fn back_columns<const N: usize>(
                 pres[mirror * nx + i0 + b] = even[b] - odd[b];
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+    use crate::sim::{Grid, batch_params, poisson::PoissonTables};
+
+    /// A grid of 13 x ny cells of 0.1 mm, no swarm.
+    fn dim(ny: u32) -> (Dim, Vec<f32>) {
+        let sets: Vec<String> = [
+            "domain.nx=13".to_string(),
+            format!("domain.ny={ny}"),
+            "domain.length_m=0.0013".into(),
+            format!("domain.height_m={}", ny as f64 * 1e-4),
+            "domain.success_x_m=0.0003".into(),
+            "domain.failure_x_m=0.001".into(),
+            "swarm.count=0".into(),
+        ]
+        .to_vec();
+        let r = Config::load(None, &sets).unwrap();
+        let poisson = PoissonTables::new(&Grid::from_config(&r.config)).to_gpu();
+        (Dim::new(&batch_params(&r, 1)), poisson)
+    }
+
+    fn noise(n: usize, seed: u32) -> Vec<f32> {
+        (0..n)
+            .map(|k| (((k as u32).wrapping_mul(2654435761) ^ seed) % 2001) as f32 / 1000.0 - 1.0)
+            .collect()
+    }
+
+    fn max_rel(a: &[f32], b: &[f32]) -> f32 {
+        let scale = b.iter().fold(0.0f32, |m, x| m.max(x.abs()));
+        a.iter()
+            .zip(b)
+            .fold(0.0f32, |m, (x, y)| m.max((x - y).abs()))
+            / scale
+    }
+
+    /// The FFT transforms equal the dense ones (the WGSL kernels' arithmetic) on tall grids,
+    /// both ways, within f32 round-off.
+    #[test]
+    fn fast_y_transforms_equal_the_dense_sums() {
+        for ny in [128u32, 201, 256] {
+            let (d, poisson) = dim(ny);
+            let (u, v) = (noise(d.n_u(), 1), noise(d.n_v(), 2));
+            let mut column = vec![0.0; d.ny * BLOCK];
+            let (mut dense, mut fast) = (vec![0.0; d.n_c()], vec![0.0; d.n_c()]);
+            let (mut div_a, mut div_b) = (vec![0.0; d.nx], vec![0.0; d.nx]);
+            for i0 in 0..d.nx {
+                rhs_columns::<1>(
+                    &d,
+                    &poisson,
+                    &u,
+                    &v,
+                    &mut dense,
+                    &mut div_a,
+                    &mut column,
+                    i0,
+                    None,
+                );
+            }
+            let mut slot = None;
+            rhs(
+                &d,
+                &poisson,
+                &u,
+                &v,
+                &mut fast,
+                &mut div_b,
+                &mut column,
+                &mut slot,
+            );
+            assert!(slot.is_some(), "ny = {ny} takes the fast path");
+            assert_eq!(div_a, div_b);
+            let e = max_rel(&fast, &dense);
+            assert!(e < 2e-6, "rhs at ny = {ny}: {e:e}");
+            let modes = noise(d.n_c(), 3);
+            let (mut pa, mut pb) = (vec![0.0; d.n_c()], vec![0.0; d.n_c()]);
+            for i0 in 0..d.nx {
+                back_columns::<1>(&d, &poisson, &modes, &mut pa, &mut column, i0);
+            }
+            back(&d, &poisson, &modes, &mut pb, &mut column, &mut slot);
+            let e = max_rel(&pb, &pa);
+            assert!(e < 2e-6, "back at ny = {ny}: {e:e}");
+        }
+        let (d, _) = dim(64);
+        assert!(fast_y(&d, &mut None).is_none(), "short columns stay dense");
     }
 }

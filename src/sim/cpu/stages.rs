@@ -59,6 +59,8 @@ pub fn pressure_rhs(p: &GpuParams, poisson: &[f32], u: &[f32], v: &[f32]) -> (Ve
             &v[e * nv..(e + 1) * nv],
             &mut modes[e * nc..(e + 1) * nc],
             &mut divstar[e * d.nx..(e + 1) * d.nx],
+            &mut Vec::new(),
+            &mut None,
         );
     }
     (modes, divstar)
@@ -86,7 +88,14 @@ pub fn project(
     let mut pres = vec![0.0; modes.len()];
     for e in 0..p.n_env as usize {
         let pe = &mut pres[e * nc..(e + 1) * nc];
-        pressure::back(&d, poisson, &modes[e * nc..(e + 1) * nc], pe);
+        pressure::back(
+            &d,
+            poisson,
+            &modes[e * nc..(e + 1) * nc],
+            pe,
+            &mut Vec::new(),
+            &mut None,
+        );
         proj::project(
             &d,
             pe,

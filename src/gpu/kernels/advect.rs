@@ -5,7 +5,6 @@
 use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side, groups};
 use crate::config::Advection;
 
-
 pub const DIFFUSE: Entry = Entry {
     name: "diffuse",
     file: "advect.wgsl",

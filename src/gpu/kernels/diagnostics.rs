@@ -3,7 +3,6 @@
 
 use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side, groups};
 
-
 pub const DIAG_COLUMNS: Entry = Entry {
     name: "diag_columns",
     file: "diagnostics.wgsl",
@@ -37,13 +36,7 @@ impl Diagnostics {
         }
     }
 
-    pub fn record(
-        &self,
-        pass: &mut super::Recorder<'_>,
-        bind: Side<'_>,
-        offset: u32,
-        d: Dims,
-    ) {
+    pub fn record(&self, pass: &mut super::Recorder<'_>, bind: Side<'_>, offset: u32, d: Dims) {
         self.columns
             .dispatch(pass, bind, offset, [groups(d.nx + 1, 64), d.n_env, 1]);
         self.reduce.dispatch(pass, bind, offset, [d.n_env, 1, 1]);

@@ -4,7 +4,6 @@
 
 use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side, groups};
 
-
 pub const PAINT_BODIES: Entry = Entry {
     name: "paint_bodies",
     file: "members.wgsl",

@@ -180,7 +180,11 @@ impl Entry {
         for b in FieldBinding::ALL {
             let (name, ty) = b.wgsl();
             let access = if self.writes(b) { "read_write" } else { "read" };
-            let note = if self.binds(b) { "" } else { " // not used here" };
+            let note = if self.binds(b) {
+                ""
+            } else {
+                " // not used here"
+            };
             header.push_str(&format!(
                 "@group(0) @binding({}) var<storage, {access}> {name}: array<{ty}>;{note}\n",
                 b as u32
@@ -337,12 +341,15 @@ impl Kernels {
                             }),
                         },
                     ];
-                    entries.extend(FieldBinding::ALL.into_iter().filter(|b| entry.binds(*b)).map(
-                        |b| wgpu::BindGroupEntry {
-                            binding: b as u32,
-                            resource: buffer(b, g).as_entire_binding(),
-                        },
-                    ));
+                    entries.extend(
+                        FieldBinding::ALL
+                            .into_iter()
+                            .filter(|b| entry.binds(*b))
+                            .map(|b| wgpu::BindGroupEntry {
+                                binding: b as u32,
+                                resource: buffer(b, g).as_entire_binding(),
+                            }),
+                    );
                     device.create_bind_group(&wgpu::BindGroupDescriptor {
                         label: Some(entry.name),
                         layout,
@@ -678,7 +685,9 @@ mod tests {
             max_storage_buffers_per_shader_stage: 8,
             ..swiftshader.clone()
         };
-        let err = advect::MACCORMACK_CORRECT.check(&eight, "eight").unwrap_err();
+        let err = advect::MACCORMACK_CORRECT
+            .check(&eight, "eight")
+            .unwrap_err();
         let text = err.to_string();
         assert!(
             matches!(
@@ -693,12 +702,17 @@ mod tests {
             ),
             "{text}"
         );
-        assert!(text.contains("maccormack_correct") && text.contains("eight"), "{text}");
+        assert!(
+            text.contains("maccormack_correct") && text.contains("eight"),
+            "{text}"
+        );
         let small = wgpu::Limits {
             max_compute_invocations_per_workgroup: 128,
             ..swiftshader
         };
-        let err = pressure_scan::PRESSURE_SCAN.check(&small, "small").unwrap_err();
+        let err = pressure_scan::PRESSURE_SCAN
+            .check(&small, "small")
+            .unwrap_err();
         assert!(matches!(
             err,
             GpuError::Limit {

@@ -3,7 +3,6 @@
 
 use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side, groups};
 
-
 pub const PRESSURE_RHS: Entry = Entry {
     name: "pressure_rhs",
     file: "pressure_rhs.wgsl",
@@ -25,13 +24,7 @@ impl PressureRhs {
         }
     }
 
-    pub fn record(
-        &self,
-        pass: &mut super::Recorder<'_>,
-        bind: Side<'_>,
-        offset: u32,
-        d: Dims,
-    ) {
+    pub fn record(&self, pass: &mut super::Recorder<'_>, bind: Side<'_>, offset: u32, d: Dims) {
         self.pipeline
             .dispatch(pass, bind, offset, [groups(d.nx, 64), d.n_env, 1]);
     }

@@ -4,7 +4,6 @@
 
 use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side};
 
-
 pub const PRESSURE_SCAN: Entry = Entry {
     name: "pressure_scan",
     file: "pressure_scan.wgsl",
@@ -26,13 +25,7 @@ impl PressureScan {
         }
     }
 
-    pub fn record(
-        &self,
-        pass: &mut super::Recorder<'_>,
-        bind: Side<'_>,
-        offset: u32,
-        d: Dims,
-    ) {
+    pub fn record(&self, pass: &mut super::Recorder<'_>, bind: Side<'_>, offset: u32, d: Dims) {
         self.pipeline
             .dispatch(pass, bind, offset, [d.ny, d.n_env, 1]);
     }

@@ -3,7 +3,6 @@
 
 use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side, groups};
 
-
 pub const PRESSURE_BACK: Entry = Entry {
     name: "pressure_back",
     file: "project.wgsl",
@@ -37,13 +36,7 @@ impl Project {
         }
     }
 
-    pub fn record(
-        &self,
-        pass: &mut super::Recorder<'_>,
-        bind: Side<'_>,
-        offset: u32,
-        d: Dims,
-    ) {
+    pub fn record(&self, pass: &mut super::Recorder<'_>, bind: Side<'_>, offset: u32, d: Dims) {
         self.back
             .dispatch(pass, bind, offset, [groups(d.nx, 64), d.n_env, 1]);
         self.correct.dispatch(

@@ -14,7 +14,8 @@
 //   inlet    [E][substeps]  inlet centreline velocity U (m/s) at the end of each substep
 //   poisson  [ny*ny | ny*nx | ny*nx]  Q (orthonormal DCT-II, Q[j*ny + k]), Thomas c', 1/m
 //   w_u, w_v like u, v: the input velocity after one explicit diffusion step
-//   u_hat, v_hat like u, v but vec4: (MacCormack predictor, min, max of its stencil, 0)
+//   u_hat, v_hat like u, v but vec4: (MacCormack predictor, min, max of its stencil, the face's
+//   transverse velocity; at the inlet faces i = 0 of u_hat the inlet value instead)
 //   members, member_diag, thrust (raw actions) [E][N]; swarm_box [E][2] (x/y extent of the centres; the extent at the last paint, where the body
 //   field may be non-zero)
 // Boundary ghosts: walls (y = 0, H) no-slip (u odd, v = 0 on the wall faces); inlet (x = 0)

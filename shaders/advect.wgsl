@@ -14,19 +14,74 @@
 //   `maccormack_correct`: u* = clamp(u_hat + (w - A^-1(u_hat)) / 2, extrema of A's stencil of w)
 // Dispatch: (ceil((nx+1)/64), ny+1, E); thread (i, j, e) owns u face (i, j) and v face (i, j).
 // Reads u_in/v_in, w_u/w_v (and u_hat/v_hat), body, inlet; writes w, u_hat/v_hat or u_out/v_out.
+// Bindings per entry point: src/gpu/kernels/advect.rs. So that `maccormack_correct` fits in 10
+// storage buffers, `advect_predict` stores the inlet face's value in u_hat[k].w (i = 0; that
+// component is otherwise unused there) and the correction copies it instead of reading inlet.
+
+// Velocity of the input field at (x, y).
+fn velocity_in(e: u32, pos: vec2<f32>) -> vec2<f32> {
+    return vec2<f32>(
+        bilerp(stencil_u_in(e, pos.x, pos.y)),
+        bilerp(stencil_v_in(e, pos.x, pos.y)),
+    );
+}
+
+// Departure point of a trajectory that ends at pos after a step h, given the velocity at pos:
+// midpoint rule (RK2) or Euler.
+fn trace(e: u32, pos: vec2<f32>, vel: vec2<f32>, h: f32) -> vec2<f32> {
+    if (P.rk2 == 0u) {
+        return pos - h * vel;
+    }
+    let mid = pos - 0.5 * h * vel;
+    return pos - h * velocity_in(e, mid);
+}
+
+// Input velocity at u face (i, j): its own u and the mean of the four v faces around it.
+fn velocity_at_u_face(e: u32, i: u32, j: u32) -> vec2<f32> {
+    let a = i32(i);
+    let b = i32(j);
+    var v: f32;
+    if (i >= 1u && i < P.nx) {
+        // Interior: the four v faces (i-1 and i, rows j and j+1) need no ghost mapping.
+        let k = v_idx(e, i - 1u, j);
+        v = v_in[k] + v_in[k + 1u] + v_in[k + P.nx] + v_in[k + P.nx + 1u];
+    } else {
+        v = fetch_v_in(e, a - 1, b) + fetch_v_in(e, a, b)
+            + fetch_v_in(e, a - 1, b + 1) + fetch_v_in(e, a, b + 1);
+    }
+    return vec2<f32>(u_in[u_idx(e, i, j)], 0.25 * v);
+}
+
+// Input velocity at v face (i, j): its own v and the mean of the four u faces around it.
+fn velocity_at_v_face(e: u32, i: u32, j: u32) -> vec2<f32> {
+    let a = i32(i);
+    let b = i32(j);
+    var u: f32;
+    if (j >= 1u && j < P.ny) {
+        // Interior: the four u faces (i and i+1, rows j-1 and j) need no ghost mapping.
+        let k = u_idx(e, i, j - 1u);
+        let row = P.nx + 1u;
+        u = u_in[k] + u_in[k + 1u] + u_in[k + row] + u_in[k + row + 1u];
+    } else {
+        u = fetch_u_in(e, a, b - 1) + fetch_u_in(e, a + 1, b - 1)
+            + fetch_u_in(e, a, b) + fetch_u_in(e, a + 1, b);
+    }
+    return vec2<f32>(0.25 * u, v_in[v_idx(e, i, j)]);
+}
+
+fn trace_u_face(e: u32, i: u32, j: u32, h: f32) -> vec2<f32> {
+    return trace(e, u_face_pos(i, j), velocity_at_u_face(e, i, j), h);
+}
+
+fn trace_v_face(e: u32, i: u32, j: u32, h: f32) -> vec2<f32> {
+    return trace(e, v_face_pos(i, j), velocity_at_v_face(e, i, j), h);
+}
+
 
 fn inlet_profile(e: u32, j: u32) -> f32 {
     let y = (f32(j) + 0.5) * P.dy;
     let centre = inlet[e * P.substeps + S.index];
     return 4.0 * centre * y * (P.height - y) / (P.height * P.height);
-}
-
-fn fetch_u_in(e: u32, i: i32, j: i32) -> f32 {
-    return fetch_u(SRC_IN, e, i, j);
-}
-
-fn fetch_v_in(e: u32, i: i32, j: i32) -> f32 {
-    return fetch_v(SRC_IN, e, i, j);
 }
 
 // dt nu lap u at the stored u face (i, j) of the input field (ghosts as in common.wgsl).
@@ -85,7 +140,10 @@ fn diffuse(@builtin(global_invocation_id) g: vec3<u32>) {
         }
     }
     if (P.n_members > 0u && i < P.nx && j < P.ny) {
-        paint_cell(e, i, j);
+        let paint = paint_cell(e, i, j);
+        if (paint.write) {
+            body[c_idx(e, i, j)] = paint.cell;
+        }
     }
 }
 
@@ -133,14 +191,26 @@ fn brinkman_v(e: u32, i: u32, j: u32, w: f32) -> f32 {
     return (1.0 - chi) * w + 0.5 * (chi_a * body[ka].z + chi_b * body[kb].z);
 }
 
-fn sl_u(src: u32, e: u32, i: u32, j: u32, h: f32) -> f32 {
+// Semi-Lagrangian value at a face: the face traced back by h in the input velocity, then the
+// diffused field (`advect_diffuse`) or the predictor (the correction's backward step) there.
+fn sl_u_diffused(e: u32, i: u32, j: u32, h: f32) -> f32 {
     let d = trace_u_face(e, i, j, h);
-    return bilerp(stencil_u(src, e, d.x, d.y));
+    return bilerp(stencil_u_diffused(e, d.x, d.y));
 }
 
-fn sl_v(src: u32, e: u32, i: u32, j: u32, h: f32) -> f32 {
+fn sl_v_diffused(e: u32, i: u32, j: u32, h: f32) -> f32 {
     let d = trace_v_face(e, i, j, h);
-    return bilerp(stencil_v(src, e, d.x, d.y));
+    return bilerp(stencil_v_diffused(e, d.x, d.y));
+}
+
+fn sl_u_hat(e: u32, i: u32, j: u32, h: f32) -> f32 {
+    let d = trace_u_face(e, i, j, h);
+    return bilerp(stencil_u_hat(e, d.x, d.y));
+}
+
+fn sl_v_hat(e: u32, i: u32, j: u32, h: f32) -> f32 {
+    let d = trace_v_face(e, i, j, h);
+    return bilerp(stencil_v_hat(e, d.x, d.y));
 }
 
 // Finish a u face from its advected value: inlet value, or Brinkman blend.
@@ -169,14 +239,14 @@ fn advect_diffuse(@builtin(global_invocation_id) g: vec3<u32>) {
     if (i <= P.nx && j < P.ny) {
         var adv = 0.0;
         if (i > 0u) {
-            adv = sl_u(SRC_DIFFUSED, e, i, j, P.dt);
+            adv = sl_u_diffused(e, i, j, P.dt);
         }
         u_out[u_idx(e, i, j)] = finish_u(e, i, j, adv);
     }
     if (i < P.nx && j <= P.ny) {
         var adv = 0.0;
         if (j > 0u && j < P.ny) {
-            adv = sl_v(SRC_DIFFUSED, e, i, j, P.dt);
+            adv = sl_v_diffused(e, i, j, P.dt);
         }
         v_out[v_idx(e, i, j)] = finish_v(e, i, j, adv);
     }
@@ -188,32 +258,32 @@ fn advect_diffuse(@builtin(global_invocation_id) g: vec3<u32>) {
 fn predict_u(e: u32, i: u32, j: u32) -> vec4<f32> {
     let vel = velocity_at_u_face(e, i, j);
     let d = trace(e, u_face_pos(i, j), vel, P.dt);
-    let st = stencil_u(SRC_DIFFUSED, e, d.x, d.y);
+    let st = stencil_u_diffused(e, d.x, d.y);
     return vec4<f32>(bilerp(st), stencil_min(st), stencil_max(st), vel.y);
 }
 
 fn predict_v(e: u32, i: u32, j: u32) -> vec4<f32> {
     let vel = velocity_at_v_face(e, i, j);
     let d = trace(e, v_face_pos(i, j), vel, P.dt);
-    let st = stencil_v(SRC_DIFFUSED, e, d.x, d.y);
+    let st = stencil_v_diffused(e, d.x, d.y);
     return vec4<f32>(bilerp(st), stencil_min(st), stencil_max(st), vel.x);
 }
 
 // The correction's backward semi-Lagrangian value A^-1(u_hat) at u face (i, j); h = u_hat[k].
 fn back_u(e: u32, i: u32, j: u32, k: u32, h: vec4<f32>) -> f32 {
     if (P.rk2 != 0u) {
-        return sl_u(SRC_HAT, e, i, j, -P.dt);
+        return sl_u_hat(e, i, j, -P.dt);
     }
     let d = u_face_pos(i, j) + P.dt * vec2<f32>(u_in[k], h.w);
-    return bilerp(stencil_u(SRC_HAT, e, d.x, d.y));
+    return bilerp(stencil_u_hat(e, d.x, d.y));
 }
 
 fn back_v(e: u32, i: u32, j: u32, k: u32, h: vec4<f32>) -> f32 {
     if (P.rk2 != 0u) {
-        return sl_v(SRC_HAT, e, i, j, -P.dt);
+        return sl_v_hat(e, i, j, -P.dt);
     }
     let d = v_face_pos(i, j) + P.dt * vec2<f32>(h.w, v_in[k]);
-    return bilerp(stencil_v(SRC_HAT, e, d.x, d.y));
+    return bilerp(stencil_v_hat(e, d.x, d.y));
 }
 
 @compute @workgroup_size(64, 1, 1)
@@ -227,7 +297,8 @@ fn advect_predict(@builtin(global_invocation_id) g: vec3<u32>) {
     if (i <= P.nx && j < P.ny) {
         let k = u_idx(e, i, j);
         if (i == 0u) {
-            u_hat[k] = vec4<f32>(u_in[k], u_in[k], u_in[k], 0.0);
+            // .w: the inlet value, which `maccormack_correct` copies to u_out.
+            u_hat[k] = vec4<f32>(u_in[k], u_in[k], u_in[k], inlet_profile(e, j));
         } else {
             u_hat[k] = predict_u(e, i, j);
         }
@@ -261,13 +332,13 @@ fn maccormack_correct(@builtin(global_invocation_id) g: vec3<u32>) {
         return;
     }
     if (i <= P.nx && j < P.ny) {
-        var adv = 0.0;
-        if (i > 0u) {
-            let k = u_idx(e, i, j);
-            let h = u_hat[k];
-            adv = limited(h, w_u[k], back_u(e, i, j, k, h));
+        let k = u_idx(e, i, j);
+        let h = u_hat[k];
+        if (i == 0u) {
+            u_out[k] = h.w; // the inlet value (`advect_predict`), as finish_u would give
+        } else {
+            u_out[k] = brinkman_u(e, i, j, limited(h, w_u[k], back_u(e, i, j, k, h)));
         }
-        u_out[u_idx(e, i, j)] = finish_u(e, i, j, adv);
     }
     if (i < P.nx && j <= P.ny) {
         var adv = 0.0;

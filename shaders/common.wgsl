@@ -1,5 +1,10 @@
-// Shared prelude of every fluid kernel: the batch parameters, the bindings of the field bind
-// group and the index/sampling helpers of the staggered (MAC) grid.
+// Shared prelude of every fluid kernel: the batch parameters (bindings 0 and 1), the index and
+// ghost helpers of the staggered (MAC) grid and the loads the samplers (sample.wgsl) read.
+//
+// Each kernel's module is built for ONE entry point (src/gpu/shaders.rs): its storage bindings
+// 2..=21 are declared by a generated header, `read` or `read_write` as that entry point's table
+// (src/gpu/kernels/<kernel>.rs) says, so its pipeline binds only what it touches. Helpers
+// therefore only read storage; every storage write is in an entry point.
 //
 // Buffer shapes (environment index outermost, row-major, x fastest):
 //   u faces  [E][ny][nx+1]  at x = i dx,        y = (j + 1/2) dy
@@ -9,7 +14,8 @@
 //   inlet    [E][substeps]  inlet centreline velocity U (m/s) at the end of each substep
 //   poisson  [ny*ny | ny*nx | ny*nx]  Q (orthonormal DCT-II, Q[j*ny + k]), Thomas c', 1/m
 //   w_u, w_v like u, v: the input velocity after one explicit diffusion step
-//   u_hat, v_hat like u, v but vec4: (MacCormack predictor, min, max of its stencil, 0)
+//   u_hat, v_hat like u, v but vec4: (MacCormack predictor, min, max of its stencil, the face's
+//   transverse velocity; at the inlet faces i = 0 of u_hat the inlet value instead)
 //   members, member_diag, thrust (raw actions) [E][N]; swarm_box [E][2] (x/y extent of the centres; the extent at the last paint, where the body
 //   field may be non-zero)
 // Boundary ghosts: walls (y = 0, H) no-slip (u odd, v = 0 on the wall faces); inlet (x = 0)
@@ -82,34 +88,45 @@ struct Substep {
 
 @group(0) @binding(0) var<uniform> P: Params;
 @group(0) @binding(1) var<uniform> S: Substep;
-@group(0) @binding(2) var<storage, read_write> u_in: array<f32>;
-@group(0) @binding(3) var<storage, read_write> v_in: array<f32>;
-@group(0) @binding(4) var<storage, read_write> u_out: array<f32>;
-@group(0) @binding(5) var<storage, read_write> v_out: array<f32>;
-@group(0) @binding(6) var<storage, read_write> u_hat: array<vec4<f32>>;
-@group(0) @binding(7) var<storage, read_write> v_hat: array<vec4<f32>>;
-@group(0) @binding(8) var<storage, read_write> p: array<f32>;
-@group(0) @binding(9) var<storage, read_write> phat: array<f32>;
-@group(0) @binding(10) var<storage, read_write> body: array<vec4<f32>>;
-@group(0) @binding(11) var<storage, read_write> inlet: array<f32>;
-@group(0) @binding(12) var<storage, read_write> poisson: array<f32>;
-@group(0) @binding(13) var<storage, read_write> divstar: array<f32>;
-@group(0) @binding(14) var<storage, read_write> colstats: array<vec4<f32>>;
-@group(0) @binding(15) var<storage, read_write> health: array<vec4<f32>>;
-@group(0) @binding(16) var<storage, read_write> w_u: array<f32>;
-@group(0) @binding(17) var<storage, read_write> w_v: array<f32>;
-@group(0) @binding(18) var<storage, read_write> members: array<Member>;
-@group(0) @binding(19) var<storage, read_write> member_diag: array<MemberDiag>;
-@group(0) @binding(20) var<storage, read_write> thrust: array<vec2<f32>>;
-@group(0) @binding(21) var<storage, read_write> swarm_box: array<vec4<f32>>;
+// Storage bindings 2..=21 (u_in, v_in, u_out, v_out, u_hat, v_hat, p, phat, body, inlet, poisson,
+// divstar, colstats, health, w_u, w_v, members, member_diag, thrust, swarm_box): see the header.
 
-// What a sampler reads: the input velocity, the MacCormack predictor, the input velocity
-// after one explicit diffusion step, w = u + dt nu lap u (written by `diffuse`), or the
-// output velocity (after the projection).
-const SRC_IN: u32 = 0u;
-const SRC_HAT: u32 = 1u;
-const SRC_DIFFUSED: u32 = 2u;
-const SRC_OUT: u32 = 3u;
+// What a sampler reads (sample.wgsl is instantiated once per source): the input velocity
+// (`in`), the input velocity after one explicit diffusion step, w = u + dt nu lap u (written by
+// `diffuse`; `diffused`), the MacCormack predictor (`hat`), or the output velocity after the
+// projection (`out`). One function per buffer, so that an entry point binds only the buffers
+// its samplers really read.
+fn load_u_in(k: u32) -> f32 {
+    return u_in[k];
+}
+
+fn load_v_in(k: u32) -> f32 {
+    return v_in[k];
+}
+
+fn load_u_diffused(k: u32) -> f32 {
+    return w_u[k];
+}
+
+fn load_v_diffused(k: u32) -> f32 {
+    return w_v[k];
+}
+
+fn load_u_hat(k: u32) -> f32 {
+    return u_hat[k].x;
+}
+
+fn load_v_hat(k: u32) -> f32 {
+    return v_hat[k].x;
+}
+
+fn load_u_out(k: u32) -> f32 {
+    return u_out[k];
+}
+
+fn load_v_out(k: u32) -> f32 {
+    return v_out[k];
+}
 
 fn u_idx(e: u32, i: u32, j: u32) -> u32 {
     return (e * P.ny + j) * (P.nx + 1u) + i;
@@ -146,51 +163,6 @@ fn ghost_v(i: i32, j: i32) -> vec3<i32> {
     return vec3<i32>(min(i, i32(P.nx) - 1), jc, 1);
 }
 
-fn value_u(src: u32, e: u32, i: i32, j: i32) -> f32 {
-    return value_u_at(src, u_idx(e, u32(i), u32(j)));
-}
-
-// The stored u value at flat index k of buffer `src`.
-fn value_u_at(src: u32, k: u32) -> f32 {
-    if (src == SRC_HAT) {
-        return u_hat[k].x;
-    }
-    if (src == SRC_DIFFUSED) {
-        return w_u[k];
-    }
-    if (src == SRC_OUT) {
-        return u_out[k];
-    }
-    return u_in[k];
-}
-
-fn value_v(src: u32, e: u32, i: i32, j: i32) -> f32 {
-    return value_v_at(src, v_idx(e, u32(i), u32(j)));
-}
-
-fn value_v_at(src: u32, k: u32) -> f32 {
-    if (src == SRC_HAT) {
-        return v_hat[k].x;
-    }
-    if (src == SRC_DIFFUSED) {
-        return w_v[k];
-    }
-    if (src == SRC_OUT) {
-        return v_out[k];
-    }
-    return v_in[k];
-}
-
-fn fetch_u(src: u32, e: u32, i: i32, j: i32) -> f32 {
-    let m = ghost_u(i, j);
-    return f32(m.z) * value_u(src, e, m.x, m.y);
-}
-
-fn fetch_v(src: u32, e: u32, i: i32, j: i32) -> f32 {
-    let m = ghost_v(i, j);
-    return f32(m.z) * value_v(src, e, m.x, m.y);
-}
-
 // The four values of a bilinear stencil and the fractional position inside it.
 struct Stencil {
     vals: vec4<f32>,
@@ -211,81 +183,6 @@ fn stencil_max(st: Stencil) -> f32 {
     return max(max(st.vals.x, st.vals.y), max(st.vals.z, st.vals.w));
 }
 
-// Stencil of u around the point (x, y) in metres; the point is clamped into the channel.
-fn stencil_u(src: u32, e: u32, x: f32, y: f32) -> Stencil {
-    let fx = clamp(x * P.inv_dx, 0.0, f32(P.nx));
-    let fy = clamp(y * P.inv_dy, 0.0, f32(P.ny)) - 0.5;
-    let i0 = min(i32(floor(fx)), i32(P.nx) - 1);
-    let j0 = i32(floor(fy));
-    var st: Stencil;
-    if (j0 >= 0 && j0 + 1 < i32(P.ny)) {
-        // Interior (i0 + 1 <= nx always): no ghost mapping needed.
-        let k = u_idx(e, u32(i0), u32(j0));
-        let row = P.nx + 1u;
-        st.vals = vec4<f32>(
-            value_u_at(src, k),
-            value_u_at(src, k + 1u),
-            value_u_at(src, k + row),
-            value_u_at(src, k + row + 1u),
-        );
-    } else {
-        st.vals = vec4<f32>(
-            fetch_u(src, e, i0, j0),
-            fetch_u(src, e, i0 + 1, j0),
-            fetch_u(src, e, i0, j0 + 1),
-            fetch_u(src, e, i0 + 1, j0 + 1),
-        );
-    }
-    st.t = vec2<f32>(fx - f32(i0), fy - f32(j0));
-    return st;
-}
-
-// Stencil of v around the point (x, y) in metres; the point is clamped into the channel.
-fn stencil_v(src: u32, e: u32, x: f32, y: f32) -> Stencil {
-    let fx = clamp(x * P.inv_dx, 0.0, f32(P.nx)) - 0.5;
-    let fy = clamp(y * P.inv_dy, 0.0, f32(P.ny));
-    let i0 = i32(floor(fx));
-    let j0 = min(i32(floor(fy)), i32(P.ny) - 1);
-    var st: Stencil;
-    if (i0 >= 0 && i0 + 1 < i32(P.nx)) {
-        // Interior (j0 + 1 <= ny always): no ghost mapping needed.
-        let k = v_idx(e, u32(i0), u32(j0));
-        st.vals = vec4<f32>(
-            value_v_at(src, k),
-            value_v_at(src, k + 1u),
-            value_v_at(src, k + P.nx),
-            value_v_at(src, k + P.nx + 1u),
-        );
-    } else {
-        st.vals = vec4<f32>(
-            fetch_v(src, e, i0, j0),
-            fetch_v(src, e, i0 + 1, j0),
-            fetch_v(src, e, i0, j0 + 1),
-            fetch_v(src, e, i0 + 1, j0 + 1),
-        );
-    }
-    st.t = vec2<f32>(fx - f32(i0), fy - f32(j0));
-    return st;
-}
-
-// Velocity of the input field at (x, y).
-fn velocity_in(e: u32, pos: vec2<f32>) -> vec2<f32> {
-    return vec2<f32>(
-        bilerp(stencil_u(SRC_IN, e, pos.x, pos.y)),
-        bilerp(stencil_v(SRC_IN, e, pos.x, pos.y)),
-    );
-}
-
-// Departure point of a trajectory that ends at pos after a step h, given the velocity at pos:
-// midpoint rule (RK2) or Euler.
-fn trace(e: u32, pos: vec2<f32>, vel: vec2<f32>, h: f32) -> vec2<f32> {
-    if (P.rk2 == 0u) {
-        return pos - h * vel;
-    }
-    let mid = pos - 0.5 * h * vel;
-    return pos - h * velocity_in(e, mid);
-}
-
 fn u_face_pos(i: u32, j: u32) -> vec2<f32> {
     return vec2<f32>(f32(i) * P.dx, (f32(j) + 0.5) * P.dy);
 }
@@ -294,55 +191,20 @@ fn v_face_pos(i: u32, j: u32) -> vec2<f32> {
     return vec2<f32>((f32(i) + 0.5) * P.dx, f32(j) * P.dy);
 }
 
-// Input velocity at u face (i, j): its own u and the mean of the four v faces around it.
-fn velocity_at_u_face(e: u32, i: u32, j: u32) -> vec2<f32> {
-    let a = i32(i);
-    let b = i32(j);
-    var v: f32;
-    if (i >= 1u && i < P.nx) {
-        // Interior: the four v faces (i-1 and i, rows j and j+1) need no ghost mapping.
-        let k = v_idx(e, i - 1u, j);
-        v = v_in[k] + v_in[k + 1u] + v_in[k + P.nx] + v_in[k + P.nx + 1u];
-    } else {
-        v = fetch_v(SRC_IN, e, a - 1, b) + fetch_v(SRC_IN, e, a, b)
-            + fetch_v(SRC_IN, e, a - 1, b + 1) + fetch_v(SRC_IN, e, a, b + 1);
-    }
-    return vec2<f32>(u_in[u_idx(e, i, j)], 0.25 * v);
-}
-
-// Input velocity at v face (i, j): its own v and the mean of the four u faces around it.
-fn velocity_at_v_face(e: u32, i: u32, j: u32) -> vec2<f32> {
-    let a = i32(i);
-    let b = i32(j);
-    var u: f32;
-    if (j >= 1u && j < P.ny) {
-        // Interior: the four u faces (i and i+1, rows j-1 and j) need no ghost mapping.
-        let k = u_idx(e, i, j - 1u);
-        let row = P.nx + 1u;
-        u = u_in[k] + u_in[k + 1u] + u_in[k + row] + u_in[k + row + 1u];
-    } else {
-        u = fetch_u(SRC_IN, e, a, b - 1) + fetch_u(SRC_IN, e, a + 1, b - 1)
-            + fetch_u(SRC_IN, e, a, b) + fetch_u(SRC_IN, e, a + 1, b);
-    }
-    return vec2<f32>(0.25 * u, v_in[v_idx(e, i, j)]);
-}
-
-fn trace_u_face(e: u32, i: u32, j: u32, h: f32) -> vec2<f32> {
-    return trace(e, u_face_pos(i, j), velocity_at_u_face(e, i, j), h);
-}
-
-fn trace_v_face(e: u32, i: u32, j: u32, h: f32) -> vec2<f32> {
-    return trace(e, v_face_pos(i, j), velocity_at_v_face(e, i, j), h);
-}
-
 fn is_finite(x: f32) -> bool {
     return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
 }
 
-// Paints cell (i, j) of environment e from the members (see members.wgsl, `paint_bodies`):
+// The painted value of cell (i, j) of environment e (see members.wgsl, `paint_bodies`):
 // chi = max over members of clamp(1/2 + (r - |x_c - x_m|) / dx, 0, 1), body velocity that
-// member's; only inside the current or the last painted swarm box (elsewhere it is zero).
-fn paint_cell(e: u32, i: u32, j: u32) {
+// member's; only inside the current or the last painted swarm box (elsewhere it is zero and
+// `write` is false: nothing to clear). The caller stores it (helpers write no storage).
+struct Paint {
+    cell: vec4<f32>,
+    write: bool,
+}
+
+fn paint_cell(e: u32, i: u32, j: u32) -> Paint {
     let c = vec2<f32>((f32(i) + 0.5) * P.dx, (f32(j) + 0.5) * P.dy);
     let reach = P.radius + P.dx;
     let bx = swarm_box[2u * e];
@@ -350,10 +212,10 @@ fn paint_cell(e: u32, i: u32, j: u32) {
     let inside = c.x >= bx.x - reach && c.x <= bx.y + reach && c.y >= bx.z - reach && c.y <= bx.w + reach;
     let was_inside = c.x >= old.x - reach && c.x <= old.y + reach && c.y >= old.z - reach
         && c.y <= old.w + reach;
-    if (!inside && !was_inside) {
-        return; // zero since the last paint: nothing to clear
-    }
     var cell = vec4<f32>(0.0);
+    if (!inside && !was_inside) {
+        return Paint(cell, false); // zero since the last paint: nothing to clear
+    }
     if (inside) {
         for (var m = 0u; m < P.n_members; m++) {
             let mem = members[e * P.n_members + m];
@@ -363,5 +225,5 @@ fn paint_cell(e: u32, i: u32, j: u32) {
             }
         }
     }
-    body[c_idx(e, i, j)] = cell;
+    return Paint(cell, true);
 }

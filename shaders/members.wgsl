@@ -9,7 +9,7 @@
 //   already zero and are not written at all.
 // `move_members`, dispatch (E, 1, 1), one workgroup of 64 per environment, thread m = member:
 //   p_k, u_k sampled (bilinear) at the 4 points x + R_s (cos t_k, sin t_k), t_k = 0, 90, 180,
-//   270 deg, clamped into the channel; after the projection (SRC_OUT).
+//   270 deg, clamped into the channel; after the projection (the `out` samplers).
 //   F_hydro = -(pi r / 2) d sum_k p_k (cos t_k, sin t_k),  d = 4 r^2 / (3 R_s)
 //   F_prop  = F_max a / max(1, |a|) for the raw action a in thrust[]
 //   F_drag  = k (u_f - v),  k = 1/2 rho pi r^2 C_d |u_f - v|  (Schiller-Naumann; 0 if off),
@@ -31,7 +31,10 @@ fn paint_bodies(@builtin(global_invocation_id) g: vec3<u32>) {
     if (i >= P.nx || j >= P.ny || e >= P.n_env) {
         return;
     }
-    paint_cell(e, i, j);
+    let paint = paint_cell(e, i, j);
+    if (paint.write) {
+        body[c_idx(e, i, j)] = paint.cell;
+    }
 }
 
 // Pressure at (x, y), bilinear in the cell centres, constant beyond the outer centres.
@@ -101,7 +104,7 @@ fn move_members(@builtin(local_invocation_id) l: vec3<u32>, @builtin(workgroup_i
         for (var s = 0u; s < 4u; s++) {
             var q = q0;
             if (s == 1u) { q = q1; } else if (s == 2u) { q = q2; } else if (s == 3u) { q = q3; }
-            uf += vec2<f32>(bilerp(stencil_u(SRC_OUT, e, q.x, q.y)), bilerp(stencil_v(SRC_OUT, e, q.x, q.y)));
+            uf += vec2<f32>(bilerp(stencil_u_out(e, q.x, q.y)), bilerp(stencil_v_out(e, q.x, q.y)));
         }
         uf *= 0.25;
         let hydro = -(PI * P.radius / 2.0) * P.depth * vec2<f32>(ps.x - ps.z, ps.y - ps.w);

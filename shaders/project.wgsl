@@ -41,25 +41,22 @@ fn pressure_back(@builtin(global_invocation_id) g: vec3<u32>, @builtin(local_inv
                 odd += term;
             }
         }
+        // p at rows j and their mirrors ny-1-j from the even and odd mode sums (rows past the
+        // half skip).
         let j0 = 4u * group;
-        write_row_pair(e, i, j0, even.x, odd.x);
-        write_row_pair(e, i, j0 + 1u, even.y, odd.y);
-        write_row_pair(e, i, j0 + 2u, even.z, odd.z);
-        write_row_pair(e, i, j0 + 3u, even.w, odd.w);
-    }
-}
-
-// p at row j and its mirror ny-1-j from the even and odd mode sums (rows past the half skip).
-fn write_row_pair(e: u32, i: u32, j: u32, even: f32, odd: f32) {
-    if (j >= (P.ny + 1u) / 2u) {
-        return;
-    }
-    let mirror = P.ny - 1u - j;
-    if (mirror == j) {
-        p[c_idx(e, i, j)] = even;
-    } else {
-        p[c_idx(e, i, j)] = even + odd;
-        p[c_idx(e, i, mirror)] = even - odd;
+        for (var r = 0u; r < 4u; r++) {
+            let j = j0 + r;
+            if (j >= (P.ny + 1u) / 2u) {
+                break;
+            }
+            let mirror = P.ny - 1u - j;
+            if (mirror == j) {
+                p[c_idx(e, i, j)] = even[r];
+            } else {
+                p[c_idx(e, i, j)] = even[r] + odd[r];
+                p[c_idx(e, i, mirror)] = even[r] - odd[r];
+            }
+        }
     }
 }
 

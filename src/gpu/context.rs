@@ -21,6 +21,18 @@ pub enum GpuError {
     #[error("GPU operation failed: {0}")]
     Operation(String),
     #[error(
+        "kernel `{kernel}` needs {limit} >= {need}, but the adapter {adapter} allows {have}: \
+         choose another adapter (`--adapter`; `fluxswarm-gpu info` lists them), e.g. Mesa's \
+         lavapipe (`bash scripts/install-vulkan.sh`)"
+    )]
+    Limit {
+        kernel: &'static str,
+        limit: &'static str,
+        need: u32,
+        have: u32,
+        adapter: String,
+    },
+    #[error(
         "the GPU rejected a command ({0}); its results are void. This is a bug in fluxswarm-gpu: please report it with the command line and `fluxswarm-gpu info`"
     )]
     Rejected(String),

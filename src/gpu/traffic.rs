@@ -2,29 +2,20 @@
 //! validator records, per entry point, the use of every global (READ, WRITE). `bench` multiplies
 //! these by the buffers' sizes to give the bytes a control step moves at least once (compulsory
 //! traffic: stencil neighbours are assumed to hit the cache).
-//! naga's reads over-approximate for kernels that fetch through `fetch_u(src, ...)`, whose
-//! `src` switch names every velocity buffer; for those, [`READ_OVERRIDES`] lists the buffers
-//! they actually read (checked to be a subset of naga's).
+//! Every entry point's module binds only what the entry point touches (the samplers are
+//! instantiated per velocity source), so naga's sets are exact; [`READ_OVERRIDES`] only drops
+//! reads too small to count.
 
 use naga::valid::{Capabilities, GlobalUse, ValidationFlags, Validator};
 
 use super::kernels::FieldBinding;
 use super::shaders;
 
-/// Buffers read by the kernels whose naga read set is too wide. `move_members` samples a few
-/// cells of u, v and p per member, negligible beside its member buffers.
-pub const READ_OVERRIDES: [(&str, &[FieldBinding]); 5] = {
+/// Reads left out of the traffic model: `move_members` samples a few cells of u, v and p per
+/// member, negligible beside its member buffers.
+pub const READ_OVERRIDES: [(&str, &[FieldBinding]); 1] = {
     use FieldBinding::*;
-    [
-        ("diffuse", &[UIn, VIn, Members, SwarmBox]),
-        ("advect_diffuse", &[UIn, VIn, WU, WV, Body, Inlet]),
-        ("advect_predict", &[UIn, VIn, WU, WV]),
-        (
-            "maccormack_correct",
-            &[UIn, VIn, UHat, VHat, WU, WV, Body, Inlet],
-        ),
-        ("move_members", &[Members, Thrust]),
-    ]
+    [("move_members", &[Members, Thrust])]
 };
 
 /// The bindings (group 0) an entry point reads and writes.
@@ -39,7 +30,7 @@ pub struct KernelAccess {
 pub fn kernel_accesses() -> Vec<KernelAccess> {
     let mut out = Vec::new();
     for (name, source) in shaders::all_modules() {
-        if name == "common.wgsl" || name == "loop_probe.wgsl" {
+        if matches!(name, "common.wgsl" | "sample.wgsl" | "loop_probe.wgsl") {
             continue;
         }
         let module = naga::front::wgsl::parse_str(&source)

@@ -23,8 +23,7 @@ use super::cpu::BatchState;
 use super::{EnvHealth, Grid, poisson::PoissonTables};
 use crate::config::{Backtrace, Resolved};
 use crate::gpu::kernels::{
-    Advect, Diagnostics, Dims, FieldBinding, FieldLayout, Members, PressureRhs, PressureScan,
-    PressureSolve, Project, Recorder, map_and_read, read_buffer,
+    Advect, BindGroups, Dims, FieldBinding, Kernels, Recorder, map_and_read, read_buffer,
 };
 use crate::gpu::params::{GpuMember, GpuMemberDiag, GpuParams, SubstepUniform};
 use crate::gpu::{GpuContext, GpuError};
@@ -91,16 +90,8 @@ pub const WGSL_MAX_NY: usize = 64;
 /// Pressure iterations per substep: the fast solver is exact for the channel's matrix.
 pub const PRESSURE_ITERATIONS_PER_SUBSTEP: u32 = 1;
 
-struct Pipelines {
-    layout: FieldLayout,
-    advect: Advect,
-    rhs: PressureRhs,
-    solve: PressureSolve,
-    scan: PressureScan,
-    project: Project,
-    diagnostics: Diagnostics,
-    members: Members,
-}
+/// Every pipeline, each with its own bind group layout (`gpu::kernels`).
+type Pipelines = Kernels;
 
 struct Buffers {
     params: wgpu::Buffer,
@@ -135,8 +126,8 @@ pub struct GpuBatch {
     substep_stride: u32,
     pipelines: Pipelines,
     buffers: Buffers,
-    /// bind[g] reads u[g], v[g] and writes u[1-g], v[1-g].
-    bind: [wgpu::BindGroup; 2],
+    /// Every pipeline's bind groups; side g reads u[g], v[g] and writes u[1-g], v[1-g].
+    bind: BindGroups,
     /// Which of u[0], u[1] holds the current field.
     cur: usize,
     /// Members and their forces as read back with the health after the last step.
@@ -243,20 +234,11 @@ impl GpuBatch {
         let n_members = core.n_members;
         let params = core.params;
         let device = &ctx.device;
-        let layout = FieldLayout::new(device);
-        let pipelines = Pipelines {
-            advect: Advect::new(device, &layout),
-            rhs: PressureRhs::new(device, &layout),
-            solve: PressureSolve::new(device, &layout),
-            scan: PressureScan::new(device, &layout),
-            project: Project::new(device, &layout),
-            diagnostics: Diagnostics::new(device, &layout),
-            members: Members::new(device, &layout),
-            layout,
-        };
+        // Fails with GpuError::Limit where a kernel needs more than the adapter allows.
+        let pipelines = Pipelines::new(ctx)?;
         let stride = ctx.limits.min_uniform_buffer_offset_alignment.max(16);
         let buffers = Self::create_buffers(ctx, &grid, &params, n_env, substeps, n_members, stride);
-        let bind = [0, 1].map(|g| Self::bind_group(device, &pipelines.layout, &buffers, g));
+        let bind = Self::bind_groups(device, &pipelines, &buffers);
         let mut batch = Self {
             ctx: ctx.clone(),
             scan_sweep: config.solver.pressure_sweep.uses_scan(ctx.is_software()),
@@ -414,60 +396,29 @@ impl GpuBatch {
         }
     }
 
-    fn bind_group(
-        device: &wgpu::Device,
-        layout: &FieldLayout,
-        b: &Buffers,
-        g: usize,
-    ) -> wgpu::BindGroup {
-        let storage: [(&wgpu::Buffer, FieldBinding); 20] = [
-            (&b.u[g], FieldBinding::UIn),
-            (&b.v[g], FieldBinding::VIn),
-            (&b.u[1 - g], FieldBinding::UOut),
-            (&b.v[1 - g], FieldBinding::VOut),
-            (&b.u_hat, FieldBinding::UHat),
-            (&b.v_hat, FieldBinding::VHat),
-            (&b.p, FieldBinding::Pressure),
-            (&b.modes, FieldBinding::Modes),
-            (&b.body, FieldBinding::Body),
-            (&b.inlet, FieldBinding::Inlet),
-            (&b.poisson, FieldBinding::Poisson),
-            (&b.divstar, FieldBinding::DivStar),
-            (&b.colstats, FieldBinding::ColStats),
-            (&b.health, FieldBinding::Health),
-            (&b.w_u, FieldBinding::WU),
-            (&b.w_v, FieldBinding::WV),
-            (&b.members, FieldBinding::Members),
-            (&b.member_diag, FieldBinding::MemberDiag),
-            (&b.thrust, FieldBinding::Thrust),
-            (&b.swarm_box, FieldBinding::SwarmBox),
-        ];
-        let mut entries = vec![
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: b.params.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &b.substep,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(16),
-                }),
-            },
-        ];
-        entries.extend(
-            storage
-                .iter()
-                .map(|(buffer, binding)| wgpu::BindGroupEntry {
-                    binding: *binding as u32,
-                    resource: buffer.as_entire_binding(),
-                }),
-        );
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(if g == 0 { "fields 0->1" } else { "fields 1->0" }),
-            layout: &layout.bind_group_layout,
-            entries: &entries,
+    /// Every pipeline's bind groups, both sides (built once per batch).
+    fn bind_groups(device: &wgpu::Device, pipelines: &Pipelines, b: &Buffers) -> BindGroups {
+        pipelines.bind_groups(device, &b.params, &b.substep, |which, g| match which {
+            FieldBinding::UIn => &b.u[g],
+            FieldBinding::VIn => &b.v[g],
+            FieldBinding::UOut => &b.u[1 - g],
+            FieldBinding::VOut => &b.v[1 - g],
+            FieldBinding::UHat => &b.u_hat,
+            FieldBinding::VHat => &b.v_hat,
+            FieldBinding::Pressure => &b.p,
+            FieldBinding::Modes => &b.modes,
+            FieldBinding::Body => &b.body,
+            FieldBinding::Inlet => &b.inlet,
+            FieldBinding::Poisson => &b.poisson,
+            FieldBinding::DivStar => &b.divstar,
+            FieldBinding::ColStats => &b.colstats,
+            FieldBinding::Health => &b.health,
+            FieldBinding::WU => &b.w_u,
+            FieldBinding::WV => &b.w_v,
+            FieldBinding::Members => &b.members,
+            FieldBinding::MemberDiag => &b.member_diag,
+            FieldBinding::Thrust => &b.thrust,
+            FieldBinding::SwarmBox => &b.swarm_box,
         })
     }
 
@@ -616,7 +567,7 @@ impl GpuBatch {
     }
 
     fn record_stage(&self, pass: &mut Recorder<'_>, stage: Stage, bind: usize, s: usize) {
-        let (b, o, d) = (&self.bind[bind], self.offset(s), self.dims());
+        let (b, o, d) = (self.bind.side(bind), self.offset(s), self.dims());
         let p = &self.pipelines;
         match stage {
             Stage::Advect => p.advect.record(pass, b, o, d, self.core.scheme),

@@ -11,7 +11,8 @@ use fluxswarm_gpu::gpu::{AdapterChoice, GpuContext};
 
 static GPU_LOCK: Mutex<()> = Mutex::new(());
 
-/// A fresh device, held exclusively: the CPU adapter (any adapter if there is no CPU one), or
+/// A fresh device, held exclusively: the CPU adapter (any adapter if there is no CPU one: Mesa's
+/// lavapipe, or SwiftShader, which also reports `Cpu`, where `VK_ICD_FILENAMES` names it), or
 /// a real GPU only when `FLUXSWARM_TEST_ADAPTER=gpu` (`scripts/device-check` sets it, so that the
 /// kernels are checked against their twins on the GPU's own driver).
 pub fn gpu() -> (MutexGuard<'static, ()>, GpuContext) {
@@ -25,6 +26,13 @@ pub fn gpu() -> (MutexGuard<'static, ()>, GpuContext) {
         _ => GpuContext::new(AdapterChoice::Cpu).or_else(|_| GpuContext::new(AdapterChoice::Auto)),
     }
     .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
+    // Once per test binary, past the harness's capture (it takes only print!/eprint!): which
+    // driver the GPU tests ran on (lavapipe, SwiftShader with VK_ICD_FILENAMES, GL llvmpipe).
+    static SAID: std::sync::Once = std::sync::Once::new();
+    SAID.call_once(|| {
+        use std::io::Write;
+        let _ = writeln!(std::io::stderr(), "GPU tests on: {}", ctx.describe());
+    });
     (guard, ctx)
 }
 

@@ -2,8 +2,48 @@
 //! Brinkman). Semi-Lagrangian: diffuse and advect, two dispatches; MacCormack: diffuse,
 //! predict and correct, three. Grid: (ceil((nx+1)/64), ny+1, E).
 
-use super::{Dims, FieldLayout, Pipeline, fluid_module, groups};
+use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side, groups};
 use crate::config::Advection;
+
+pub const DIFFUSE: Entry = Entry {
+    name: "diffuse",
+    file: "advect.wgsl",
+    source: crate::gpu::shaders::ADVECT,
+    workgroup: [64, 1, 1],
+    workgroup_bytes: 0,
+    reads: &[UIn, VIn, Members, SwarmBox],
+    writes: &[Body, WU, WV],
+};
+
+pub const ADVECT_DIFFUSE: Entry = Entry {
+    name: "advect_diffuse",
+    file: "advect.wgsl",
+    source: crate::gpu::shaders::ADVECT,
+    workgroup: [64, 1, 1],
+    workgroup_bytes: 0,
+    reads: &[UIn, VIn, Body, Inlet, WU, WV, SwarmBox],
+    writes: &[UOut, VOut],
+};
+
+pub const ADVECT_PREDICT: Entry = Entry {
+    name: "advect_predict",
+    file: "advect.wgsl",
+    source: crate::gpu::shaders::ADVECT,
+    workgroup: [64, 1, 1],
+    workgroup_bytes: 0,
+    reads: &[UIn, VIn, Inlet, WU, WV],
+    writes: &[UHat, VHat],
+};
+
+pub const MACCORMACK_CORRECT: Entry = Entry {
+    name: "maccormack_correct",
+    file: "advect.wgsl",
+    source: crate::gpu::shaders::ADVECT,
+    workgroup: [64, 1, 1],
+    workgroup_bytes: 0,
+    reads: &[UIn, VIn, UHat, VHat, Body, WU, WV, SwarmBox],
+    writes: &[UOut, VOut],
+};
 
 pub struct Advect {
     diffuse: Pipeline,
@@ -13,13 +53,12 @@ pub struct Advect {
 }
 
 impl Advect {
-    pub fn new(device: &wgpu::Device, layout: &FieldLayout) -> Self {
-        let module = fluid_module(device, "advect", crate::gpu::shaders::ADVECT);
+    pub fn new(b: &mut Builder<'_>) -> Self {
         Self {
-            diffuse: Pipeline::new(device, layout, &module, "diffuse"),
-            semi_lagrangian: Pipeline::new(device, layout, &module, "advect_diffuse"),
-            predict: Pipeline::new(device, layout, &module, "advect_predict"),
-            correct: Pipeline::new(device, layout, &module, "maccormack_correct"),
+            diffuse: Pipeline::new(b, &DIFFUSE),
+            semi_lagrangian: Pipeline::new(b, &ADVECT_DIFFUSE),
+            predict: Pipeline::new(b, &ADVECT_PREDICT),
+            correct: Pipeline::new(b, &MACCORMACK_CORRECT),
         }
     }
 
@@ -38,7 +77,7 @@ impl Advect {
     pub fn record(
         &self,
         pass: &mut super::Recorder<'_>,
-        bind: &wgpu::BindGroup,
+        bind: Side<'_>,
         substep_offset: u32,
         dims: Dims,
         scheme: Advection,

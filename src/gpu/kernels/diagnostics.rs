@@ -1,7 +1,27 @@
 //! `shaders/diagnostics.wgsl`: per-cross-section statistics, then a per-environment reduction
 //! into the health buffer. Grids: (ceil((nx+1)/64), E, 1) and (E, 1, 1).
 
-use super::{Dims, FieldLayout, Pipeline, fluid_module, groups};
+use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side, groups};
+
+pub const DIAG_COLUMNS: Entry = Entry {
+    name: "diag_columns",
+    file: "diagnostics.wgsl",
+    source: crate::gpu::shaders::DIAGNOSTICS,
+    workgroup: [64, 1, 1],
+    workgroup_bytes: 0,
+    reads: &[UOut, VOut, Pressure],
+    writes: &[ColStats],
+};
+
+pub const DIAG_REDUCE: Entry = Entry {
+    name: "diag_reduce",
+    file: "diagnostics.wgsl",
+    source: crate::gpu::shaders::DIAGNOSTICS,
+    workgroup: [64, 1, 1],
+    workgroup_bytes: 2048,
+    reads: &[DivStar, ColStats],
+    writes: &[Health],
+};
 
 pub struct Diagnostics {
     columns: Pipeline,
@@ -9,21 +29,14 @@ pub struct Diagnostics {
 }
 
 impl Diagnostics {
-    pub fn new(device: &wgpu::Device, layout: &FieldLayout) -> Self {
-        let module = fluid_module(device, "diagnostics", crate::gpu::shaders::DIAGNOSTICS);
+    pub fn new(b: &mut Builder<'_>) -> Self {
         Self {
-            columns: Pipeline::new(device, layout, &module, "diag_columns"),
-            reduce: Pipeline::new(device, layout, &module, "diag_reduce"),
+            columns: Pipeline::new(b, &DIAG_COLUMNS),
+            reduce: Pipeline::new(b, &DIAG_REDUCE),
         }
     }
 
-    pub fn record(
-        &self,
-        pass: &mut super::Recorder<'_>,
-        bind: &wgpu::BindGroup,
-        offset: u32,
-        d: Dims,
-    ) {
+    pub fn record(&self, pass: &mut super::Recorder<'_>, bind: Side<'_>, offset: u32, d: Dims) {
         self.columns
             .dispatch(pass, bind, offset, [groups(d.nx + 1, 64), d.n_env, 1]);
         self.reduce.dispatch(pass, bind, offset, [d.n_env, 1, 1]);

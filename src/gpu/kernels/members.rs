@@ -2,7 +2,27 @@
 //! (grid (ceil(nx/64), ny, E)) and moved after the projection (one workgroup per environment,
 //! grid (E, 1, 1)). Recorded only when the batch has members.
 
-use super::{Dims, FieldLayout, Pipeline, fluid_module, groups};
+use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side, groups};
+
+pub const PAINT_BODIES: Entry = Entry {
+    name: "paint_bodies",
+    file: "members.wgsl",
+    source: crate::gpu::shaders::MEMBERS,
+    workgroup: [64, 1, 1],
+    workgroup_bytes: 0,
+    reads: &[Members, SwarmBox],
+    writes: &[Body],
+};
+
+pub const MOVE_MEMBERS: Entry = Entry {
+    name: "move_members",
+    file: "members.wgsl",
+    source: crate::gpu::shaders::MEMBERS,
+    workgroup: [64, 1, 1],
+    workgroup_bytes: 1792,
+    reads: &[UOut, VOut, Pressure, Thrust],
+    writes: &[Members, MemberDiag, SwarmBox],
+};
 
 pub struct Members {
     paint: Pipeline,
@@ -10,11 +30,10 @@ pub struct Members {
 }
 
 impl Members {
-    pub fn new(device: &wgpu::Device, layout: &FieldLayout) -> Self {
-        let module = fluid_module(device, "members", crate::gpu::shaders::MEMBERS);
+    pub fn new(b: &mut Builder<'_>) -> Self {
         Self {
-            paint: Pipeline::new(device, layout, &module, "paint_bodies"),
-            step: Pipeline::new(device, layout, &module, "move_members"),
+            paint: Pipeline::new(b, &PAINT_BODIES),
+            step: Pipeline::new(b, &MOVE_MEMBERS),
         }
     }
 
@@ -22,7 +41,7 @@ impl Members {
     pub fn record_paint(
         &self,
         pass: &mut super::Recorder<'_>,
-        bind: &wgpu::BindGroup,
+        bind: Side<'_>,
         offset: u32,
         d: Dims,
     ) {
@@ -34,7 +53,7 @@ impl Members {
     pub fn record_move(
         &self,
         pass: &mut super::Recorder<'_>,
-        bind: &wgpu::BindGroup,
+        bind: Side<'_>,
         offset: u32,
         d: Dims,
     ) {

@@ -2,27 +2,30 @@
 //! of affine maps (the GPU variant of [`super::PressureSolve`], same factors and equations),
 //! in place on the modes buffer. Grid: (ny, E, 1) workgroups of 256 threads, one per mode.
 
-use super::{Dims, FieldLayout, Pipeline, fluid_module};
+use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side};
+
+pub const PRESSURE_SCAN: Entry = Entry {
+    name: "pressure_scan",
+    file: "pressure_scan.wgsl",
+    source: crate::gpu::shaders::PRESSURE_SCAN,
+    workgroup: [256, 1, 1],
+    workgroup_bytes: 2048,
+    reads: &[Poisson],
+    writes: &[Modes],
+};
 
 pub struct PressureScan {
     pipeline: Pipeline,
 }
 
 impl PressureScan {
-    pub fn new(device: &wgpu::Device, layout: &FieldLayout) -> Self {
-        let module = fluid_module(device, "pressure_scan", crate::gpu::shaders::PRESSURE_SCAN);
+    pub fn new(b: &mut Builder<'_>) -> Self {
         Self {
-            pipeline: Pipeline::new(device, layout, &module, "pressure_scan"),
+            pipeline: Pipeline::new(b, &PRESSURE_SCAN),
         }
     }
 
-    pub fn record(
-        &self,
-        pass: &mut super::Recorder<'_>,
-        bind: &wgpu::BindGroup,
-        offset: u32,
-        d: Dims,
-    ) {
+    pub fn record(&self, pass: &mut super::Recorder<'_>, bind: Side<'_>, offset: u32, d: Dims) {
         self.pipeline
             .dispatch(pass, bind, offset, [d.ny, d.n_env, 1]);
     }

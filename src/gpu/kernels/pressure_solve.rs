@@ -1,31 +1,30 @@
 //! `shaders/pressure_solve.wgsl`: per-mode tridiagonal (Thomas) solve along x, in place on the
 //! modes buffer. Grid: (ceil(ny/16), E, 1).
 
-use super::{Dims, FieldLayout, Pipeline, fluid_module, groups};
+use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side, groups};
+
+pub const PRESSURE_SOLVE: Entry = Entry {
+    name: "pressure_solve",
+    file: "pressure_solve.wgsl",
+    source: crate::gpu::shaders::PRESSURE_SOLVE,
+    workgroup: [16, 1, 1],
+    workgroup_bytes: 0,
+    reads: &[Poisson],
+    writes: &[Modes],
+};
 
 pub struct PressureSolve {
     pipeline: Pipeline,
 }
 
 impl PressureSolve {
-    pub fn new(device: &wgpu::Device, layout: &FieldLayout) -> Self {
-        let module = fluid_module(
-            device,
-            "pressure_solve",
-            crate::gpu::shaders::PRESSURE_SOLVE,
-        );
+    pub fn new(b: &mut Builder<'_>) -> Self {
         Self {
-            pipeline: Pipeline::new(device, layout, &module, "pressure_solve"),
+            pipeline: Pipeline::new(b, &PRESSURE_SOLVE),
         }
     }
 
-    pub fn record(
-        &self,
-        pass: &mut super::Recorder<'_>,
-        bind: &wgpu::BindGroup,
-        offset: u32,
-        d: Dims,
-    ) {
+    pub fn record(&self, pass: &mut super::Recorder<'_>, bind: Side<'_>, offset: u32, d: Dims) {
         self.pipeline
             .dispatch(pass, bind, offset, [groups(d.ny, 16), d.n_env, 1]);
     }

@@ -2,7 +2,7 @@
 //! file, with a CRC-32 of all array bytes in the metadata so a damaged file is refused rather
 //! than half-loaded. Written atomically: to `NAME.tmp` in the same directory, synced, then
 //! renamed over `NAME`, so a crash leaves either the old or the new file, never a torn one.
-//! What goes in is up to the owners of the state (`Learner`, `SwarmEnv`, `FluidBatch`, `train`).
+//! What goes in is up to the owners of the state (`Learner`, `SwarmEnv`, `FlowBatch`, `train`).
 
 use std::collections::{BTreeMap, HashMap};
 use std::io::Write;

@@ -17,11 +17,11 @@ fluxswarm() {
     "$FLUXSWARM_BIN" "$@"
 }
 
-# FLUXSWARM_BACKEND=native: new training runs and the baseline rollouts run the control step
-# natively on the CPU cores (README, Performance). Resumed runs and rollouts of a checkpoint keep
-# the backend saved with it.
+# FLUXSWARM_BACKEND=native|adapter|auto: the backend of new training runs and the baseline
+# rollouts (default: the configuration's, `auto`: a GPU if there is one, else the CPU backend;
+# README, Performance). Resumed runs and rollouts of a checkpoint keep the backend saved with it.
 BACKEND_SET=()
-if [ "${FLUXSWARM_BACKEND:-adapter}" != adapter ]; then
+if [ -n "${FLUXSWARM_BACKEND:-}" ]; then
     BACKEND_SET=(--set "solver.backend=$FLUXSWARM_BACKEND")
 fi
 

@@ -86,8 +86,17 @@ impl GpuContext {
     }
 
     pub fn from_adapter(adapter: wgpu::Adapter) -> Result<Self, GpuError> {
-        let info = adapter.get_info();
         let limits = adapter.limits();
+        Self::from_adapter_with_limits(adapter, limits)
+    }
+
+    /// A device with `limits` (at most the adapter's): e.g. a stricter driver's limits on a
+    /// lenient one, to test that what needs more is refused cleanly.
+    pub fn from_adapter_with_limits(
+        adapter: wgpu::Adapter,
+        limits: wgpu::Limits,
+    ) -> Result<Self, GpuError> {
+        let info = adapter.get_info();
         // Timestamps around each dispatch, for `bench`'s per-kernel times, where available.
         let timing =
             wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES;

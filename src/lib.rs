@@ -12,6 +12,7 @@ pub mod gpu;
 pub mod learn;
 pub mod output;
 pub mod report;
+pub mod rng;
 pub mod sim;
 pub mod tuning;
 pub mod waveform;

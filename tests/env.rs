@@ -6,9 +6,9 @@ mod common;
 
 use fluxswarm_gpu::config::Resolved;
 use fluxswarm_gpu::env::policy::Baseline;
-use fluxswarm_gpu::env::rng::Rng;
 use fluxswarm_gpu::env::{OBS_DIM, Outcome};
 use fluxswarm_gpu::gpu::kernels::FieldBinding;
+use fluxswarm_gpu::rng::Rng;
 
 /// A 30 x 2 mm channel (success line 6 mm, failure line 24 mm) with members at `pos_mm`.
 fn config(pos_mm: &[[f64; 2]], extra: &[&str]) -> Resolved {

@@ -2,9 +2,9 @@
 //! the target, smoothly), a bounded training run improves every objective's episode metric
 //! clearly over the random policy, with and without PCGrad.
 
-use fluxswarm_gpu::env::rng::Rng;
 use fluxswarm_gpu::learn::env::{MultiAgentEnv, PointMasses};
 use fluxswarm_gpu::learn::mappo::{Learner, TrainConfig};
+use fluxswarm_gpu::rng::Rng;
 
 const ENVS: usize = 8;
 const AGENTS: usize = 2;

@@ -12,13 +12,13 @@ use clap::Args;
 use fluxswarm_gpu::checkpoint::{self, Archive};
 use fluxswarm_gpu::config::{Config, Resolved};
 use fluxswarm_gpu::env::policy::Baseline;
-use fluxswarm_gpu::env::rng::Rng;
 use fluxswarm_gpu::env::{OBS_DIM, SwarmEnv, reward};
 use fluxswarm_gpu::gpu::params::{GpuMember, GpuMemberDiag};
 use fluxswarm_gpu::learn::mappo::Learner;
 use fluxswarm_gpu::output::episodes::EpisodesCsv;
 use fluxswarm_gpu::output::frame::{self, MemberMark};
 use fluxswarm_gpu::output::run_dir;
+use fluxswarm_gpu::rng::Rng;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::common::ConfigArgs;

@@ -11,14 +11,13 @@
 mod checkpoint;
 pub mod policy;
 pub mod reward;
-pub mod rng;
 
 use std::fmt;
 
 use crate::config::Resolved;
 use crate::gpu::params::{GpuMember, GpuMemberDiag};
+use crate::rng::Rng;
 use crate::sim::{FlowBatch, SimError};
-use rng::Rng;
 
 /// Values per observation, per reward.
 pub const OBS_DIM: usize = 8;

@@ -3,8 +3,8 @@
 
 use crate::checkpoint::Archive;
 pub use crate::env::Transition;
-use crate::env::rng::Rng;
 use crate::env::{EpisodeSummary, Outcome, reward};
+use crate::rng::Rng;
 
 /// A batched multi-agent, multi-objective environment with 2D actions.
 pub trait MultiAgentEnv {

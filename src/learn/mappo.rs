@@ -23,7 +23,7 @@ use super::ppo::clipped_surrogate_grad;
 use super::surgery::{flatten, named_vars, set_values, values};
 use crate::checkpoint::Archive;
 use crate::env::EpisodeSummary;
-use crate::env::rng::Rng;
+use crate::rng::Rng;
 
 /// Hyperparameters: the `[train]` table of the configuration (SPEC section 5).
 pub use crate::config::Train as TrainConfig;

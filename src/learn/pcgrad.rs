@@ -176,7 +176,7 @@ mod tests {
     fn the_gram_matrix_form_equals_projecting_the_vectors() {
         // Three long gradients (an awkward length) with conflicts: g1 and g2 share a
         // component, g0 opposes it.
-        let mut rng = crate::env::rng::Rng::new(5);
+        let mut rng = crate::rng::Rng::new(5);
         let len = 1003;
         let base: Vec<f32> = (0..len).map(|_| rng.normal() as f32).collect();
         let grads: Vec<Vec<f32>> = [-1.0f32, 0.6, 0.3]

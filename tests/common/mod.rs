@@ -53,21 +53,17 @@ pub fn small_config(nx: u32, ny: u32, extra: &[&str]) -> Resolved {
     Config::load(None, &sets).unwrap_or_else(|e| panic!("test config: {e}"))
 }
 
-/// Deterministic pseudo-random numbers in [-1, 1) (SplitMix64).
-pub struct Noise(u64);
+/// Deterministic pseudo-random numbers in [-1, 1), from the project's generator started at the
+/// raw state `seed`.
+pub struct Noise(fluxswarm_gpu::rng::Rng);
 
 impl Noise {
     pub fn new(seed: u64) -> Self {
-        Self(seed)
+        Self(fluxswarm_gpu::rng::Rng(seed))
     }
 
     pub fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 40) as f32 / (1u64 << 23) as f32 - 1.0
+        (self.0.next_u64() >> 40) as f32 / (1u64 << 23) as f32 - 1.0
     }
 
     pub fn vec(&mut self, n: usize, scale: f32) -> Vec<f32> {

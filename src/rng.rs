@@ -1,5 +1,7 @@
-//! A small seedable generator (SplitMix64) whose whole state is one u64, so environments and
-//! policies reproduce from a seed and the state can be saved with a checkpoint.
+//! The project's one random generator (SplitMix64, Steele et al. 2014), whose whole state is
+//! one u64, so environments, policies, the learner and the tests reproduce from a seed and the
+//! state can be saved with a checkpoint. `Rng::new(seed)` mixes the seed; `Rng(state)` starts
+//! from a raw state.
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Rng(pub u64);

@@ -7,8 +7,9 @@
 //! measure what it buys. CI runs it once: `cargo bench --bench learner -- --test`.
 
 use criterion::{Criterion, Throughput};
-use fluxswarm_gpu::learn::env::{MultiAgentEnv, PointMasses};
+use fluxswarm_gpu::learn::env::MultiAgentEnv;
 use fluxswarm_gpu::learn::mappo::{Learner, TrainConfig};
+use fluxswarm_gpu::testing::PointMasses;
 
 const AGENTS: usize = 16;
 

@@ -14,5 +14,7 @@ pub mod output;
 pub mod report;
 pub mod rng;
 pub mod sim;
+#[cfg(any(test, feature = "testing"))]
+pub mod testing;
 pub mod tuning;
 pub mod waveform;

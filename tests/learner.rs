@@ -2,9 +2,10 @@
 //! the target, smoothly), a bounded training run improves every objective's episode metric
 //! clearly over the random policy, with and without PCGrad.
 
-use fluxswarm_gpu::learn::env::{MultiAgentEnv, PointMasses};
+use fluxswarm_gpu::learn::env::MultiAgentEnv;
 use fluxswarm_gpu::learn::mappo::{Learner, TrainConfig};
 use fluxswarm_gpu::rng::Rng;
+use fluxswarm_gpu::testing::PointMasses;
 
 const ENVS: usize = 8;
 const AGENTS: usize = 2;

@@ -12,7 +12,7 @@ mod checkpoint;
 pub mod policy;
 pub mod reward;
 
-use std::fmt;
+pub use crate::learn::env::{EpisodeSummary, Outcome, Transition};
 
 use crate::config::Resolved;
 use crate::gpu::params::{GpuMember, GpuMemberDiag};
@@ -24,64 +24,6 @@ pub const OBS_DIM: usize = 8;
 pub const N_OBJECTIVES: usize = 3;
 /// Pressure scale of the observation (Pa).
 pub const PRESSURE_SCALE_PA: f64 = 1000.0;
-
-/// How an episode ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Outcome {
-    Success,
-    Failure,
-    Timeout,
-    Diverged,
-}
-
-impl fmt::Display for Outcome {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Outcome::Success => "success",
-            Outcome::Failure => "failure",
-            Outcome::Timeout => "timeout",
-            Outcome::Diverged => "diverged",
-        })
-    }
-}
-
-/// Metrics of a finished episode (SPEC section 3, the columns of `episodes.csv`).
-#[derive(Debug, Clone, PartialEq)]
-pub struct EpisodeSummary {
-    pub env: usize,
-    pub episode: u64,
-    pub steps: u32,
-    pub outcome: Outcome,
-    /// Sum over steps of the agent-mean progress reward.
-    pub progress: f64,
-    /// Mean over steps of the agent-mean energy and smoothness rewards.
-    pub energy: f64,
-    pub smoothness: f64,
-    pub progress_mean: f64,
-    pub energy_sum: f64,
-    pub smoothness_sum: f64,
-    /// Sum over steps of the scalar reward (agent mean of the three columns).
-    pub scalar_return: f64,
-    pub final_x_com_mm: f64,
-}
-
-/// One batched multi-agent, three-objective step: what every environment the learner drives
-/// returns (see [`crate::learn::env::MultiAgentEnv`]).
-#[derive(Debug, Clone)]
-pub struct Transition {
-    /// [E][N][8]; for an environment that just ended, the first observation of its new episode.
-    pub obs: Vec<f32>,
-    /// [E][N][3]; zero for a diverged environment (its state is garbage).
-    pub rewards: Vec<f32>,
-    pub terminated: Vec<bool>,
-    pub truncated: Vec<bool>,
-    /// Outcome `diverged` (never bootstrapped); neither terminated nor truncated is set.
-    pub diverged: Vec<bool>,
-    /// [N][8] final observation of each environment whose episode ended this step.
-    pub final_obs: Vec<Option<Vec<f32>>>,
-    /// Metrics of each episode that ended this step.
-    pub episodes: Vec<Option<EpisodeSummary>>,
-}
 
 /// What `SwarmEnv::step` returns: the [`Transition`] (also reachable through `Deref`) plus the
 /// swarm's state for logging.

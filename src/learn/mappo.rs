@@ -21,8 +21,8 @@ use super::normalizer::ObsNormalizer;
 use super::pcgrad::{average, pcgrad};
 use super::ppo::clipped_surrogate_grad;
 use super::surgery::{flatten, named_vars, set_values, values};
+use super::transition::EpisodeSummary;
 use crate::checkpoint::Archive;
-use crate::env::EpisodeSummary;
 use crate::rng::Rng;
 
 /// Hyperparameters: the `[train]` table of the configuration (SPEC section 5).
@@ -726,7 +726,7 @@ mod tests {
 
     #[test]
     fn a_checkpoint_restores_learner_and_environment_exactly() {
-        use crate::learn::env::PointMasses;
+        use crate::testing::PointMasses;
         let mut env = PointMasses::new(3, 2, 11);
         let mut a = Learner::new(2, 8, small_cfg(), 4).unwrap();
         let mut obs = env.reset().unwrap();

@@ -4,7 +4,9 @@
 //! ([`pcgrad`], applied to candle gradients by [`surgery`]), the clipped surrogate ([`ppo`]) and
 //! the actor and critic ([`nets`]), Adam with saveable moments ([`adam`]) and the running
 //! observation normaliser ([`normalizer`]). [`mappo`] runs rollouts and updates on any
-//! [`env::MultiAgentEnv`] and saves its whole state into a checkpoint.
+//! [`env::MultiAgentEnv`] and saves its whole state into a checkpoint. The learner knows no GPU
+//! and no swarm: it names nothing outside `learn/` but the checkpoint archive and the RNG, and
+//! the environments implement its trait with its [`transition`] types.
 
 pub mod adam;
 pub mod env;
@@ -16,3 +18,4 @@ pub mod normalizer;
 pub mod pcgrad;
 pub mod ppo;
 pub mod surgery;
+pub mod transition;

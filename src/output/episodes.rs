@@ -4,7 +4,7 @@
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
-use crate::env::EpisodeSummary;
+use crate::learn::transition::EpisodeSummary;
 
 const COLUMNS: &str = "env,episode,steps,outcome,progress,energy,smoothness,progress_mean,energy_sum,smoothness_sum,scalar_return,final_x_com_mm";
 

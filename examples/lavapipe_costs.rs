@@ -5,7 +5,7 @@
 //! Every kernel reads `a`, `b` (f32) or `av` (vec4) and writes `o`, `o2` or `ov`; cell
 //! c = (e ny + j) nx + i. The cases separate the cost of an invocation, a load, a store, a
 //! data-dependent gather, a loop, a divergent branch and an array in workgroup or private
-//! memory (README, Performance, "What lavapipe charges for").
+//! memory (docs/performance.md, "What lavapipe charges for").
 //!
 //! `cargo run --release --example lavapipe_costs [-- NAME_FILTER...]`
 use std::time::Instant;

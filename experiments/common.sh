@@ -19,7 +19,7 @@ fluxswarm() {
 
 # FLUXSWARM_BACKEND=native|adapter|auto: the backend of new training runs and the baseline
 # rollouts (default: the configuration's, `auto`: a GPU if there is one, else the CPU backend;
-# README, Performance). Resumed runs and rollouts of a checkpoint keep the backend saved with it.
+# docs/architecture.md). Resumed runs and rollouts of a checkpoint keep the backend saved with it.
 BACKEND_SET=()
 if [ -n "${FLUXSWARM_BACKEND:-}" ]; then
     BACKEND_SET=(--set "solver.backend=$FLUXSWARM_BACKEND")

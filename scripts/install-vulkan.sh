@@ -3,7 +3,7 @@
 # missing, so that wgpu finds an adapter on a machine without a GPU.
 #
 # Debian 12 ships Mesa 22.3, whose lavapipe silently caps a shader invocation at 65,535 loop
-# iterations (see README, "Platform notes"); on Debian 12 this script therefore installs
+# iterations (see docs/platform.md); on Debian 12 this script therefore installs
 # Mesa 25 from bookworm-backports. The backports entry is derived from the machine's own
 # Debian source list, so whatever mirror the machine already uses is reused.
 #

@@ -1,9 +1,12 @@
 //! fluxswarm-gpu: a batched 2D incompressible Navier-Stokes channel solver in WGSL compute
-//! shaders (wgpu), for training micro-robot swarms to swim upstream in pulsatile blood flow.
+//! shaders (wgpu) with a CPU backend beside it, for training micro-robot swarms to swim
+//! upstream in pulsatile blood flow.
 //!
-//! Layers, each depending only on those below it:
-//! `output` (frames, .npy, CSV) -> `sim` (the batched flow) -> `gpu` (kernels, context),
-//! with `config` and `waveform` beside them.
+//! Layers, each depending only on those below it (`tests/layering.rs` checks it):
+//! the CLI (the binary) -> `learn` (MOMAPPO + PCGrad, any `learn::env::MultiAgentEnv`), `env`
+//! (the swarm environments), `report`, `output` -> `sim` (the batched flow: trait
+//! `FlowBatch`, `CpuBatch`, `GpuBatch`) -> `gpu` (adapter, kernels), with `config`,
+//! `waveform`, `checkpoint`, `rng` and `tuning` beside them; `testing` is test-only.
 
 pub mod checkpoint;
 pub mod config;

@@ -137,7 +137,7 @@ fn clip_norm(g: &mut [f32], max: f64) {
 
 /// Threads of the learner's own pool: `FLUXSWARM_LEARNER_THREADS`, default 1. On the 2-core
 /// development VM one thread was fastest (candle split even small products, and the
-/// hand-offs cost more than they saved; README, *The learner*); many-core machines may gain from
+/// hand-offs cost more than they saved; docs/performance.md, "The learner's cost"); many-core machines may gain from
 /// more at large batches.
 pub fn learner_threads() -> anyhow::Result<usize> {
     match std::env::var("FLUXSWARM_LEARNER_THREADS") {

@@ -66,7 +66,7 @@ impl FastY {
 }
 
 /// Cells across the channel from which the FFT-based y-transforms replace the dense ones
-/// (measured: README "Grid"; below it the dense sums are as fast or faster).
+/// (measured: docs/performance.md, "Grid height"; below it the dense sums are as fast or faster).
 pub const FAST_Y_MIN: usize = 192;
 
 /// The fast transforms for this grid, if it is tall enough to use them (kept in `slot`).

@@ -1,0 +1,190 @@
+//! Run configuration: TOML mirrored by serde structs (`deny_unknown_fields`), SI units, each key
+//! named with its unit. `configs/paper.toml` is embedded as the default; a user file is merged
+//! over it key by key, then `--set section.key=value` overrides are applied, then everything is
+//! validated (ranges, waveform, diffusion number, CFL number) before any GPU work.
+//! The keys are [`schema`], the checks [`validate`], file merging and `--set` [`overrides`].
+
+mod overrides;
+mod schema;
+mod validate;
+
+pub use schema::*;
+
+use overrides::{apply_set, merge};
+
+use std::path::{Path, PathBuf};
+
+use thiserror::Error;
+
+use crate::waveform::{Waveform, WaveformError};
+
+/// The paper's setup, embedded.
+pub const PAPER_TOML: &str = include_str!("../../configs/paper.toml");
+
+/// Largest explicit-diffusion number nu dt (1/dx^2 + 1/dy^2) / 2 accepted (FTCS stability).
+pub const MAX_DIFFUSION_NUMBER: f64 = 0.25;
+/// Largest CFL number U_peak dt_sub / dx accepted: a departure point never leaves the
+/// neighbouring cells, so the one-cell-deep boundary ghosts of the advection stay valid.
+pub const MAX_CFL: f64 = 1.0;
+/// Relative allowance for decimal rounding when comparing the CFL number to its limit (the
+/// paper's setup is exactly CFL = 1, which in f64 evaluates to 1 + 2e-16).
+pub const CFL_ROUNDING_ALLOWANCE: f64 = 1e-9;
+
+/// Largest ny on the CPU backend (the WGSL pressure kernels hold fewer per column:
+/// `sim::fluid::WGSL_MAX_NY`).
+pub const MAX_NY: u32 = 256;
+
+/// Keys that may be absent from the default configuration but can be set.
+const OPTIONAL_KEYS: &[(&str, &str)] = &[("inlet", "csv")];
+
+#[derive(Debug, Error)]
+pub enum ConfigError {
+    #[error("cannot read config file {path}: {source}")]
+    Read {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("config file {path} is not valid TOML: {message}")]
+    Syntax { path: String, message: String },
+    #[error("--set {arg}: {message}")]
+    Set { arg: String, message: String },
+    #[error("config key `{key}`: {message}")]
+    Key { key: String, message: String },
+    #[error("config key `{key}` = {value}: {message}")]
+    Range {
+        key: String,
+        value: String,
+        message: String,
+    },
+    #[error(transparent)]
+    Waveform(#[from] WaveformError),
+}
+
+/// A validated configuration with its waveform resolved.
+#[derive(Debug, Clone)]
+pub struct Resolved {
+    pub config: Config,
+    pub waveform: Waveform,
+}
+
+impl Config {
+    /// The embedded paper configuration.
+    pub fn paper() -> Self {
+        toml::from_str(PAPER_TOML).expect("embedded configs/paper.toml is valid")
+    }
+
+    /// Default <- optional file <- `--set` overrides, then validation.
+    pub fn load(file: Option<&Path>, sets: &[String]) -> Result<Resolved, ConfigError> {
+        let mut table: toml::Table = PAPER_TOML
+            .parse()
+            .expect("embedded configs/paper.toml is valid");
+        let mut base_dir = PathBuf::from(".");
+        if let Some(path) = file {
+            let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+                path: path.display().to_string(),
+                source,
+            })?;
+            let user: toml::Table =
+                text.parse()
+                    .map_err(|e: toml::de::Error| ConfigError::Syntax {
+                        path: path.display().to_string(),
+                        message: e.message().to_string(),
+                    })?;
+            merge(&mut table, user);
+            if let Some(dir) = path.parent() {
+                base_dir = dir.to_path_buf();
+            }
+        }
+        for arg in sets {
+            apply_set(&mut table, arg)?;
+        }
+        let mut config: Config = serde_path_to_error::deserialize(toml::Value::Table(table))
+            .map_err(|e| ConfigError::Key {
+                key: e.path().to_string(),
+                message: e.into_inner().message().to_string(),
+            })?;
+        if let Some(csv) = &config.inlet.csv
+            && csv.is_relative()
+        {
+            config.inlet.csv = Some(base_dir.join(csv));
+        }
+        config.resolve()
+    }
+
+    /// A configuration saved by this program (a checkpoint's or a run's `config.toml`), loaded
+    /// as written: no defaults merged in, every key required.
+    pub fn from_saved(text: &str) -> Result<Resolved, ConfigError> {
+        let de = toml::de::Deserializer::parse(text).map_err(|e| ConfigError::Syntax {
+            path: "saved configuration".into(),
+            message: e.message().to_string(),
+        })?;
+        let config: Config =
+            serde_path_to_error::deserialize(de).map_err(|e| ConfigError::Key {
+                key: e.path().to_string(),
+                message: e.into_inner().message().to_string(),
+            })?;
+        config.resolve()
+    }
+
+    pub fn dx(&self) -> f64 {
+        self.domain.length_m / self.domain.nx as f64
+    }
+
+    pub fn dy(&self) -> f64 {
+        self.domain.height_m / self.domain.ny as f64
+    }
+
+    pub fn dt_sub(&self) -> f64 {
+        self.time.control_dt_s / self.time.substeps as f64
+    }
+
+    pub fn kinematic_viscosity(&self) -> f64 {
+        self.fluid.viscosity_pa_s / self.fluid.density_kg_m3
+    }
+
+    /// nu dt_sub (1/dx^2 + 1/dy^2) / 2; equals nu dt / dx^2 on a square grid.
+    pub fn diffusion_number(&self) -> f64 {
+        let (dx, dy) = (self.dx(), self.dy());
+        0.5 * self.kinematic_viscosity() * self.dt_sub() * (1.0 / (dx * dx) + 1.0 / (dy * dy))
+    }
+
+    /// U_peak dt_sub / dx from the peak inlet centreline velocity, in f64.
+    pub fn cfl_number(&self, waveform: &Waveform) -> f64 {
+        waveform.peak_abs() * self.dt_sub() / self.dx()
+    }
+
+    /// The resolved configuration as TOML text.
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).unwrap_or_default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_config_loads_at_cfl_one() {
+        let r = Config::load(None, &[]).unwrap();
+        let cfl = r.config.cfl_number(&r.waveform);
+        assert!((cfl - 1.0).abs() < 1e-12, "{cfl}");
+        assert!((r.config.diffusion_number() - 0.0707).abs() < 1e-3);
+        assert_eq!(r.config, Config::paper());
+    }
+
+    #[test]
+    fn set_overrides_and_merges() {
+        let r = Config::load(
+            None,
+            &[
+                "domain.nx=500".into(),
+                "solver.advection=semi_lagrangian".into(),
+                "inlet.points=[[0.0, 0.1], [0.5, 0.2]]".into(),
+            ],
+        )
+        .unwrap();
+        assert_eq!(r.config.domain.nx, 500);
+        assert_eq!(r.config.solver.advection, Advection::SemiLagrangian);
+        assert!((r.waveform.at(0.25) - 0.15).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,178 @@
+//! Acting (sampled or mean actions and their joint log-probabilities), the critic's values, and
+//! one iteration: a rollout of T steps x E environments, GAE per objective and agent, then the
+//! update.
+
+use super::*;
+
+impl Learner {
+    /// Sampled (or mean) raw actions [E][N] and joint log-probabilities [E] for network inputs
+    /// [E][N][D] (observations passed through [`Self::normalize`]).
+    pub fn act(
+        &mut self,
+        obs: &[f32],
+        deterministic: bool,
+    ) -> anyhow::Result<(Vec<[f32; 2]>, Vec<f32>)> {
+        let pool = self.pool.clone();
+        pool.install(|| self.act_serial(obs, deterministic))
+    }
+
+    pub(super) fn act_serial(
+        &mut self,
+        obs: &[f32],
+        deterministic: bool,
+    ) -> anyhow::Result<(Vec<[f32; 2]>, Vec<f32>)> {
+        let rows = obs.len() / self.obs_dim;
+        let x = Tensor::from_slice(obs, (rows, self.obs_dim), &self.dev)?;
+        let (mean, log_std) = self.actor.forward(&x)?;
+        let m: Vec<f32> = mean.flatten_all()?.to_vec1()?;
+        let s: Vec<f32> = log_std.exp()?.flatten_all()?.to_vec1()?;
+        let mut actions = Vec::with_capacity(rows);
+        for r in 0..rows {
+            let mut a = [0.0f32; 2];
+            for d in 0..2 {
+                let z = if deterministic {
+                    0.0
+                } else {
+                    self.rng.normal() as f32
+                };
+                a[d] = m[2 * r + d] + s[2 * r + d] * z;
+            }
+            actions.push(a);
+        }
+        let a = Tensor::from_slice(&actions.concat(), (rows, 2), &self.dev)?;
+        let lp: Vec<f32> = gaussian_log_prob(&a, &mean, &log_std)?
+            .reshape((rows / self.agents, self.agents))?
+            .sum(1)?
+            .to_vec1()?;
+        Ok((actions, lp))
+    }
+
+    /// Values [B][N][3] of joint states given as network inputs [B][N][D].
+    pub fn values(&self, obs: &[f32]) -> anyhow::Result<Vec<f32>> {
+        self.pool.install(|| {
+            let b = obs.len() / (self.agents * self.obs_dim);
+            let x = Tensor::from_slice(obs, (b, self.agents * self.obs_dim), &self.dev)?;
+            Ok(self
+                .critic
+                .forward(&x)?
+                .transpose(1, 2)?
+                .contiguous()?
+                .flatten_all()?
+                .to_vec1()?)
+        })
+    }
+
+    /// Collects one rollout from `env` (continuing from `obs`) and updates the networks.
+    pub fn iterate(
+        &mut self,
+        env: &mut dyn MultiAgentEnv,
+        obs: &mut Vec<f32>,
+    ) -> anyhow::Result<Iteration> {
+        let start = std::time::Instant::now();
+        let mut sim_s = 0.0;
+        let (t_len, ne, n, d) = (
+            self.cfg.rollout_steps as usize,
+            env.n_env(),
+            self.agents,
+            self.obs_dim,
+        );
+        let per_env = n * 3;
+        let mut obs_buf = Vec::with_capacity(t_len * ne * n * d);
+        let mut act_buf: Vec<[f32; 2]> = Vec::with_capacity(t_len * ne * n);
+        let mut logp_buf = Vec::with_capacity(t_len * ne);
+        let mut values = Vec::with_capacity(t_len * ne * per_env);
+        let mut next_values = vec![0.0f32; t_len * ne * per_env];
+        let mut rewards = Vec::with_capacity(t_len * ne * per_env);
+        let (mut term, mut trunc, mut div) = (Vec::new(), Vec::new(), Vec::new());
+        let mut episodes: Vec<EpisodeSummary> = Vec::new();
+        let mut ended_prev = vec![false; ne];
+        for t in 0..t_len {
+            if let Some(norm) = &mut self.normalizer {
+                norm.update(obs);
+            }
+            let x = self.normalize(obs);
+            let (actions, logp) = self.act(&x, false)?;
+            let v = self.values(&x)?;
+            if t > 0 {
+                // V(s_t) bootstraps step t-1 where that episode went on.
+                for e in 0..ne {
+                    if !ended_prev[e] {
+                        let dst = ((t - 1) * ne + e) * per_env;
+                        next_values[dst..dst + per_env]
+                            .copy_from_slice(&v[e * per_env..(e + 1) * per_env]);
+                    }
+                }
+            }
+            obs_buf.extend_from_slice(&x);
+            act_buf.extend_from_slice(&actions);
+            logp_buf.extend(logp);
+            values.extend_from_slice(&v);
+            let t0 = std::time::Instant::now();
+            let tr = env.step(&actions)?;
+            sim_s += t0.elapsed().as_secs_f64();
+            rewards.extend_from_slice(&tr.rewards);
+            for (e, ended) in ended_prev.iter_mut().enumerate() {
+                *ended = tr.terminated[e] || tr.truncated[e] || tr.diverged[e];
+                if tr.truncated[e]
+                    && let Some(f) = &tr.final_obs[e]
+                {
+                    let vf = self.values(&self.normalize(f))?;
+                    let dst = (t * ne + e) * per_env;
+                    next_values[dst..dst + per_env].copy_from_slice(&vf);
+                }
+                if let Some(ep) = &tr.episodes[e] {
+                    episodes.push(ep.clone());
+                }
+            }
+            term.extend_from_slice(&tr.terminated);
+            trunc.extend_from_slice(&tr.truncated);
+            div.extend_from_slice(&tr.diverged);
+            *obs = tr.obs;
+        }
+        let v_last = self.values(&self.normalize(obs))?;
+        for e in 0..ne {
+            if !ended_prev[e] {
+                let dst = ((t_len - 1) * ne + e) * per_env;
+                next_values[dst..dst + per_env]
+                    .copy_from_slice(&v_last[e * per_env..(e + 1) * per_env]);
+            }
+        }
+        let (mut adv, returns) = gae(
+            &Rollout {
+                steps: t_len,
+                envs: ne,
+                agents: n,
+                objectives: 3,
+                rewards: &rewards,
+                values: &values,
+                next_values: &next_values,
+                terminated: &term,
+                truncated: &trunc,
+                diverged: &div,
+            },
+            self.cfg.gamma as f32,
+            self.cfg.lambda as f32,
+        );
+        if self.cfg.normalize_advantages {
+            for k in 0..3 {
+                let xs: Vec<f32> = adv.iter().skip(k).step_by(3).copied().collect();
+                let m = xs.iter().sum::<f32>() / xs.len() as f32;
+                let sd = (xs.iter().map(|x| (x - m).powi(2)).sum::<f32>() / xs.len() as f32).sqrt();
+                adv.iter_mut()
+                    .skip(k)
+                    .step_by(3)
+                    .for_each(|x| *x = (*x - m) / (sd + 1e-8));
+            }
+        }
+        let pool = self.pool.clone();
+        let stats = pool
+            .install(|| self.update(&obs_buf, &act_buf, &logp_buf, &adv, &returns, t_len * ne))?;
+        Ok(Iteration {
+            stats,
+            episodes,
+            env_steps: t_len * ne,
+            sim_s,
+            learn_s: start.elapsed().as_secs_f64() - sim_s,
+        })
+    }
+}

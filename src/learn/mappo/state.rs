@@ -1,0 +1,86 @@
+//! Saving and restoring the learner in a checkpoint: parameters by name, both optimisers' moments
+//! and step counts, the observation normaliser and the RNG (under `learner.`).
+
+use super::*;
+
+impl Learner {
+    /// Adds the learner's whole state under `learner.`: parameters by name, both optimisers'
+    /// moments and step counts, the observation normaliser and the RNG.
+    pub fn save_state(&self, archive: &mut Archive) -> anyhow::Result<()> {
+        for (name, var) in named_vars(&self.map, "") {
+            let data: Vec<f32> = var.as_tensor().flatten_all()?.to_vec1()?;
+            archive.put_f32(&format!("learner.param.{name}"), var.dims(), &data);
+        }
+        for (tag, opt) in [("actor", &self.opt_actor), ("critic", &self.opt_critic)] {
+            let len = opt.m.len();
+            archive.put_f32(&format!("learner.adam.{tag}.m"), &[len], &opt.m);
+            archive.put_f32(&format!("learner.adam.{tag}.v"), &[len], &opt.v);
+            archive.put_u64(&format!("learner.adam.{tag}.t"), &[opt.t]);
+        }
+        if let Some(n) = &self.normalizer {
+            archive.put_f64("learner.obs_norm.count", &[1], &[n.count]);
+            archive.put_f64("learner.obs_norm.mean", &[n.dim()], &n.mean);
+            archive.put_f64("learner.obs_norm.var", &[n.dim()], &n.var);
+        }
+        archive.put_u64("learner.rng", &[self.rng.0]);
+        archive.put_u64("learner.shape", &[self.agents as u64, self.obs_dim as u64]);
+        Ok(())
+    }
+
+    /// Restores what [`Self::save_state`] wrote; the learner must have the same agents,
+    /// observation size and normalisation setting.
+    pub fn load_state(&mut self, archive: &Archive) -> anyhow::Result<()> {
+        let shape = archive.u64("learner.shape", Some(2))?;
+        if shape != [self.agents as u64, self.obs_dim as u64] {
+            return Err(archive
+                .mismatch(format!(
+                    "it was trained with {} agents and {} observations each, this run has {} and {}",
+                    shape[0], shape[1], self.agents, self.obs_dim
+                ))
+                .into());
+        }
+        let saved_norm = archive.shape("learner.obs_norm.mean").is_some();
+        if saved_norm != self.normalizer.is_some() {
+            return Err(archive
+                .mismatch(format!(
+                    "train.normalize_observations was {saved_norm} when it was written, {} now",
+                    !saved_norm
+                ))
+                .into());
+        }
+        // Read everything before changing anything, so a bad file leaves the learner intact.
+        let vars = named_vars(&self.map, "");
+        let mut params = Vec::with_capacity(vars.len());
+        for (name, var) in &vars {
+            params.push(archive.f32(&format!("learner.param.{name}"), Some(var.elem_count()))?);
+        }
+        let mut opts = Vec::new();
+        for (tag, opt) in [("actor", &self.opt_actor), ("critic", &self.opt_critic)] {
+            let len = Some(opt.m.len());
+            opts.push((
+                archive.f32(&format!("learner.adam.{tag}.m"), len)?,
+                archive.f32(&format!("learner.adam.{tag}.v"), len)?,
+                archive.u64(&format!("learner.adam.{tag}.t"), Some(1))?[0],
+            ));
+        }
+        let normalizer = match &self.normalizer {
+            Some(n) => Some(ObsNormalizer {
+                count: archive.f64("learner.obs_norm.count", Some(1))?[0],
+                mean: archive.f64("learner.obs_norm.mean", Some(n.dim()))?,
+                var: archive.f64("learner.obs_norm.var", Some(n.dim()))?,
+            }),
+            None => None,
+        };
+        let rng = archive.u64("learner.rng", Some(1))?[0];
+        set_values(&vars, &params.concat())?;
+        for (opt, (m, v, t)) in [&mut self.opt_actor, &mut self.opt_critic]
+            .into_iter()
+            .zip(opts)
+        {
+            (opt.m, opt.v, opt.t) = (m, v, t);
+        }
+        self.normalizer = normalizer;
+        self.rng.0 = rng;
+        Ok(())
+    }
+}

@@ -1,0 +1,174 @@
+//! The PPO update: the four actor gradients from one batched backward pass, PCGrad (or the
+//! average) over the three objectives, the entropy bonus, gradient clipping and Adam steps for
+//! actor and critic, per minibatch and epoch.
+
+use super::*;
+
+impl Learner {
+    /// The three objectives' actor gradients and the entropy bonus's, flattened in
+    /// `actor_vars` order, from one forward pass and one batched backward pass, given each
+    /// objective's d loss / d (joint log-probability) `d_lp` [3][B]. Also the mean entropy
+    /// and mean log σ. Rows are agents, `b` samples of `n` agents each; `actions` [B N][2].
+    pub(super) fn actor_gradients(
+        &self,
+        pass: &ActorPass,
+        actions: &[f32],
+        d_lp: &[Vec<f32>],
+        b: usize,
+        n: usize,
+    ) -> anyhow::Result<ActorGradients> {
+        let rows = b * n;
+        let mean: Vec<f32> = pass.mean.flatten_all()?.to_vec1()?;
+        let log_std: Vec<f32> = pass.log_std.flatten_all()?.to_vec1()?;
+        // Two sets of row gradients. Set 0, per row and action dimension: d log N / d mean =
+        // z / σ and d log N / d log σ = z^2 - 1, weighted by each objective's d loss / d lp of
+        // the row's sample. Set 1, the entropy bonus -c mean_rows sum_dims (log σ + const):
+        // -c / rows on every d / d log σ, weight 1 for the bonus and 0 for the objectives.
+        let k = d_lp.len() + 1;
+        let mut d_mean = vec![0.0f32; 2 * rows * 2];
+        let mut d_log_std = vec![0.0f32; 2 * rows * 2];
+        for i in 0..rows * 2 {
+            let inv_sigma = (-log_std[i]).exp();
+            let z = (actions[i] - mean[i]) * inv_sigma;
+            d_mean[i] = z * inv_sigma;
+            d_log_std[i] = z * z - 1.0;
+            d_log_std[rows * 2 + i] = -(self.cfg.entropy_coef / rows as f64) as f32;
+        }
+        let mut weights = vec![0.0f32; k * 2 * b];
+        for (o, w) in d_lp.iter().enumerate() {
+            weights[o * 2 * b..o * 2 * b + b].copy_from_slice(w);
+        }
+        weights[(k - 1) * 2 * b + b..].fill(1.0);
+        let shape = (2, rows, 2);
+        let grads = self.actor.backward(
+            pass,
+            &Tensor::from_vec(d_mean, shape, &self.dev)?,
+            &Tensor::from_vec(d_log_std, shape, &self.dev)?,
+            &Tensor::from_vec(weights, (k, 2, b), &self.dev)?,
+        )?;
+        let mut flat = vec![Vec::new(); k];
+        for ((name, _), (suffix, g)) in self.actor_vars.iter().zip(&grads) {
+            assert_eq!(
+                name.strip_prefix("actor."),
+                Some(*suffix),
+                "actor parameter order"
+            );
+            let g: Vec<f32> = g.flatten_all()?.to_vec1()?;
+            let per = g.len() / k;
+            for (o, f) in flat.iter_mut().enumerate() {
+                f.extend_from_slice(&g[o * per..(o + 1) * per]);
+            }
+        }
+        let entropy_bonus = flat.pop().expect("k >= 1");
+        let mean_log_std = log_std.iter().map(|&x| x as f64).sum::<f64>() / log_std.len() as f64;
+        let entropy = 2.0 * (0.5 + 0.5 * (2.0 * std::f64::consts::PI).ln() + mean_log_std);
+        Ok(ActorGradients {
+            objectives: flat,
+            entropy_bonus,
+            entropy,
+            mean_log_std,
+        })
+    }
+
+    pub(super) fn update(
+        &mut self,
+        obs: &[f32],
+        actions: &[[f32; 2]],
+        logp_old: &[f32],
+        adv: &[f32],
+        returns: &[f32],
+        samples: usize,
+    ) -> anyhow::Result<UpdateStats> {
+        let (n, d) = (self.agents, self.obs_dim);
+        let mb = (samples / self.cfg.minibatches.max(1) as usize).max(1);
+        let mut stats = UpdateStats::default();
+        let mut count = 0.0;
+        for _ in 0..self.cfg.epochs {
+            let perm = self.rng.permutation(samples);
+            for chunk in perm.chunks(mb) {
+                let b = chunk.len();
+                let gather = |src: &[f32], width: usize| -> Vec<f32> {
+                    chunk
+                        .iter()
+                        .flat_map(|&s| src[s * width..(s + 1) * width].iter().copied())
+                        .collect()
+                };
+                let o = Tensor::from_slice(&gather(obs, n * d), (b * n, d), &self.dev)?;
+                let a_flat: Vec<f32> = chunk
+                    .iter()
+                    .flat_map(|&s| actions[s * n..(s + 1) * n].concat())
+                    .collect();
+                let a = Tensor::from_slice(&a_flat, (b * n, 2), &self.dev)?;
+                let ret_t = Tensor::from_slice(&gather(returns, n * 3), (b, n, 3), &self.dev)?;
+
+                let pass = self.actor.forward_pass(&o)?;
+                let lp_new: Vec<f32> = gaussian_log_prob(&a, &pass.mean, &pass.log_std)?
+                    .reshape((b, n))?
+                    .sum(1)?
+                    .to_vec1()?;
+                let (lp_old, adv_b) = (gather(logp_old, 1), gather(adv, n * 3));
+                let mut d_lp = Vec::with_capacity(3);
+                for k in 0..3 {
+                    let adv_k: Vec<f32> = adv_b.iter().skip(k).step_by(3).copied().collect();
+                    let (loss, g) =
+                        clipped_surrogate_grad(&lp_new, &lp_old, &adv_k, self.cfg.clip as f32);
+                    stats.loss[k] += loss;
+                    d_lp.push(g);
+                }
+                let grads = self.actor_gradients(&pass, &a_flat, &d_lp, b, n)?;
+                let surgery = if self.cfg.pcgrad {
+                    let order: Vec<Vec<usize>> = (0..3)
+                        .map(|i| {
+                            self.rng
+                                .permutation(3)
+                                .into_iter()
+                                .filter(|&j| j != i)
+                                .collect()
+                        })
+                        .collect();
+                    pcgrad(&grads.objectives, &order)
+                } else {
+                    average(&grads.objectives)
+                };
+                let mut g: Vec<f32> = surgery
+                    .combined
+                    .iter()
+                    .zip(&grads.entropy_bonus)
+                    .map(|(a, b)| a + b)
+                    .collect();
+                clip_norm(&mut g, self.cfg.max_grad_norm);
+                adam_step(&mut self.opt_actor, &self.actor_vars, &g)?;
+
+                let x = o.reshape((b, n * d))?;
+                let v = self.critic.forward(&x)?.transpose(1, 2)?;
+                let value_loss = (v - &ret_t)?.sqr()?.mean_all()?.affine(1.5, 0.0)?; // 0.5 x 3 heads
+                let mut gc = flatten(&value_loss.backward()?, &self.critic_vars)?;
+                clip_norm(&mut gc, self.cfg.max_grad_norm);
+                adam_step(&mut self.opt_critic, &self.critic_vars, &gc)?;
+
+                stats.value_loss += value_loss.to_scalar::<f32>()? as f64;
+                stats.entropy += grads.entropy;
+                stats.mean_log_std += grads.mean_log_std;
+                for p in 0..3 {
+                    stats.cosine[p] += surgery.cosines[p] as f64;
+                    stats.conflict[p] += surgery.conflicts[p] as u32 as f64;
+                }
+                count += 1.0;
+            }
+        }
+        for x in stats
+            .loss
+            .iter_mut()
+            .chain(stats.cosine.iter_mut())
+            .chain(stats.conflict.iter_mut())
+            .chain([
+                &mut stats.value_loss,
+                &mut stats.entropy,
+                &mut stats.mean_log_std,
+            ])
+        {
+            *x /= count;
+        }
+        Ok(stats)
+    }
+}

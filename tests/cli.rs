@@ -6,21 +6,7 @@ mod common;
 
 use std::path::Path;
 
-use common::cli::{SMALL_SWARM, bin, text};
-
-/// A 10 mm channel at the paper's resolution.
-const SMALL: &[&str] = &[
-    "--set",
-    "domain.nx=100",
-    "--set",
-    "domain.length_m=0.01",
-    "--set",
-    "domain.success_x_m=0.002",
-    "--set",
-    "domain.failure_x_m=0.008",
-    "--set",
-    "swarm.count=0",
-];
+use common::cli::{SMALL, SMALL_SWARM, bin, text};
 
 #[test]
 fn simulate_writes_frames_fields_and_summary() {

@@ -5,7 +5,29 @@
 
 mod common;
 
-use common::cli::{NO_ADAPTER, SMALL_SWARM, bin, bin_env, text};
+use common::cli::{NO_ADAPTER, SMALL, SMALL_SWARM, bin, bin_env, text};
+
+/// A short training run (4 updates of 4 steps x 2 environments) of the small swarm into `out`.
+fn train_args<'a>(out: &'a str, seed: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "train",
+        "--envs",
+        "2",
+        "--steps",
+        "16",
+        "--seed",
+        seed,
+        "--out",
+        out,
+        "--set",
+        "train.rollout_steps=4",
+        "--set",
+        "train.minibatches=2",
+    ];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(SMALL_SWARM);
+    args
+}
 
 fn ok(args: &[&str]) -> String {
     let o = bin_env(args, NO_ADAPTER);
@@ -40,22 +62,7 @@ fn train_resume_rollout_eval_simulate_and_bench_run_without_an_adapter() {
     let dir = tempfile::tempdir().unwrap();
     let run = dir.path().join("train");
     let run_s = run.to_str().unwrap();
-    let train = [
-        "train",
-        "--envs",
-        "2",
-        "--steps",
-        "16",
-        "--seed",
-        "3",
-        "--out",
-        run_s,
-        "--set",
-        "train.rollout_steps=4",
-        "--set",
-        "train.minibatches=2",
-    ];
-    let t = ok(&[&train[..], SMALL_SWARM].concat());
+    let t = ok(&train_args(run_s, "3", &[]));
     assert!(t.contains("control step: CPU backend"), "{t}");
     let config = std::fs::read_to_string(run.join("config.toml")).unwrap();
     assert!(
@@ -114,50 +121,32 @@ fn train_resume_rollout_eval_simulate_and_bench_run_without_an_adapter() {
     assert!(eval.join("episodes.csv").exists());
 
     let sim = dir.path().join("sim");
+    let sim_s = sim.to_str().unwrap();
     ok(&[
-        "simulate",
-        "--seconds",
-        "0.01",
-        "--fields-every",
-        "1",
-        "--frames-every",
-        "1",
-        "--out",
-        sim.to_str().unwrap(),
-        "--set",
-        "domain.nx=100",
-        "--set",
-        "domain.length_m=0.01",
-        "--set",
-        "domain.success_x_m=0.002",
-        "--set",
-        "domain.failure_x_m=0.008",
-        "--set",
-        "swarm.count=0",
-    ]);
+        &[
+            "simulate",
+            "--seconds",
+            "0.01",
+            "--fields-every",
+            "1",
+            "--frames-every",
+            "1",
+            "--out",
+            sim_s,
+        ][..],
+        SMALL,
+    ]
+    .concat());
     assert!(sim.join("fields/ux_000002.npy").exists());
     assert!(sim.join("frames/env0_s000002.png").exists());
 
     let bench = dir.path().join("bench");
+    let bench_s = bench.to_str().unwrap();
     ok(&[
-        "bench",
-        "--envs",
-        "2",
-        "--seconds",
-        "0.2",
-        "--out",
-        bench.to_str().unwrap(),
-        "--set",
-        "domain.nx=100",
-        "--set",
-        "domain.length_m=0.01",
-        "--set",
-        "domain.success_x_m=0.002",
-        "--set",
-        "domain.failure_x_m=0.008",
-        "--set",
-        "swarm.grid_centre_x_m=0.005",
-    ]);
+        &["bench", "--envs", "2", "--seconds", "0.2", "--out", bench_s][..],
+        SMALL,
+    ]
+    .concat());
     let csv = std::fs::read_to_string(bench.join("bench.csv")).unwrap();
     assert!(
         csv.lines().nth(1).unwrap().contains("\"CPU backend, "),
@@ -172,24 +161,11 @@ fn a_run_trained_on_the_kernels_resumes_on_the_cpu_backend() {
     let dir = tempfile::tempdir().unwrap();
     let run = dir.path().join("train");
     let run_s = run.to_str().unwrap();
-    let args = [
-        "train",
-        "--envs",
-        "2",
-        "--steps",
-        "16",
-        "--seed",
-        "4",
-        "--out",
+    let o = bin(&train_args(
         run_s,
-        "--set",
-        "train.rollout_steps=4",
-        "--set",
-        "train.minibatches=2",
-        "--set",
-        "solver.backend=adapter",
-    ];
-    let o = bin(&[&args[..], SMALL_SWARM].concat());
+        "4",
+        &["--set", "solver.backend=adapter"],
+    ));
     assert!(o.status.success(), "{}", text(&o));
     assert!(text(&o).contains("WGSL kernels on"), "{}", text(&o));
     // Without an adapter the saved backend cannot run: the error says what to do.

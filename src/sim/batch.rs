@@ -158,6 +158,30 @@ impl BatchCore {
         }
     }
 
+    /// An error unless `state` and `forces` have this batch's shape (every array's length).
+    pub fn check_state(
+        &self,
+        state: &BatchState,
+        forces: &[GpuMemberDiag],
+    ) -> Result<(), SimError> {
+        let (ne, n, g) = (self.n_env, self.n_members, self.grid);
+        Self::check_len("u faces of the batch", state.u.len(), ne * g.n_u())?;
+        Self::check_len("v faces of the batch", state.v.len(), ne * g.n_v())?;
+        Self::check_len(
+            "pressure cells of the batch",
+            state.p.len(),
+            ne * g.n_cells(),
+        )?;
+        Self::check_len(
+            "body cells of the batch",
+            state.body.len(),
+            ne * g.n_cells(),
+        )?;
+        Self::check_len("members of the batch", state.members.len(), ne * n)?;
+        Self::check_len("actions of the batch", state.actions.len(), ne * n)?;
+        Self::check_len("member forces of the batch", forces.len(), ne * n)
+    }
+
     /// The inlet centreline velocity of every environment at the end of every substep of the
     /// coming control step, [E][S] (m/s).
     pub fn inlet_values(&self) -> Vec<f32> {

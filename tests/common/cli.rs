@@ -51,3 +51,17 @@ pub const SMALL_SWARM: &[&str] = &[
     "--set",
     "env.max_steps=3",
 ];
+
+/// A 10 mm channel at the paper's resolution.
+pub const SMALL: &[&str] = &[
+    "--set",
+    "domain.nx=100",
+    "--set",
+    "domain.length_m=0.01",
+    "--set",
+    "domain.success_x_m=0.002",
+    "--set",
+    "domain.failure_x_m=0.008",
+    "--set",
+    "swarm.count=0",
+];

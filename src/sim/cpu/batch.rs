@@ -166,22 +166,8 @@ impl FlowBatch for CpuBatch {
     }
 
     fn set_state(&mut self, state: &BatchState, forces: &[GpuMemberDiag]) -> Result<(), SimError> {
-        let (ne, n, g) = (self.core.n_env, self.core.n_members, self.core.grid);
-        BatchCore::check_len("u faces of the batch", state.u.len(), ne * g.n_u())?;
-        BatchCore::check_len("v faces of the batch", state.v.len(), ne * g.n_v())?;
-        BatchCore::check_len(
-            "pressure cells of the batch",
-            state.p.len(),
-            ne * g.n_cells(),
-        )?;
-        BatchCore::check_len(
-            "body cells of the batch",
-            state.body.len(),
-            ne * g.n_cells(),
-        )?;
-        BatchCore::check_len("members of the batch", state.members.len(), ne * n)?;
-        BatchCore::check_len("actions of the batch", state.actions.len(), ne * n)?;
-        BatchCore::check_len("member forces of the batch", forces.len(), ne * n)?;
+        self.core.check_state(state, forces)?;
+        let (ne, n) = (self.core.n_env, self.core.n_members);
         let s = &mut self.state;
         s.u.copy_from_slice(&state.u);
         s.v.copy_from_slice(&state.v);

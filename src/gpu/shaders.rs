@@ -73,10 +73,10 @@ pub fn entry_points(kernel: &str) -> Vec<&str> {
     let mut names = Vec::new();
     let mut lines = kernel.lines();
     while let Some(line) = lines.next() {
-        if line.starts_with("@compute") {
-            if let Some(name) = fn_name(line).or_else(|| lines.next().and_then(fn_name)) {
-                names.push(name);
-            }
+        if line.starts_with("@compute")
+            && let Some(name) = fn_name(line).or_else(|| lines.next().and_then(fn_name))
+        {
+            names.push(name);
         }
     }
     names

@@ -5,6 +5,10 @@
 // 2..=21 are declared by a generated header, `read` or `read_write` as that entry point's table
 // (src/gpu/kernels/<kernel>.rs) says, so its pipeline binds only what it touches. Helpers
 // therefore only read storage; every storage write is in an entry point.
+// The header also declares the column layout of the batch's grid, `const MAX_NY: u32` (cells a
+// column kernel holds per column) and `const LANES: u32` (columns per workgroup), which size the
+// workgroup scratch and workgroup of `pressure_rhs` and `pressure_back` (`Columns` in
+// src/gpu/kernels/mod.rs).
 //
 // Buffer shapes (environment index outermost, row-major, x fastest):
 //   u faces  [E][ny][nx+1]  at x = i dx,        y = (j + 1/2) dy

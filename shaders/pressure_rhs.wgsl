@@ -3,19 +3,21 @@
 //   b(i, j) = rho / dt * div u*(i, j),   div = (u[i+1,j] - u[i,j]) / dx + (v[i,j+1] - v[i,j]) / dy
 //   phat[e][k][i] = sum_j Q[j][k] b(i, j)          (Q: orthonormal DCT-II, Neumann walls)
 // Also records max_j |div u*| of each column in divstar[e][i] (for the relative residual).
-// Dispatch: (ceil(nx/64), E, 1); thread (i, e) owns column i: ny divergences (computed once,
+// Dispatch: (ceil(nx/LANES), E, 1); thread (i, e) owns column i: ny divergences (computed once,
 // kept in lane-interleaved workgroup scratch), then ny^2 / 2 multiply-adds: the basis is
 // mirror-symmetric, Q[ny-1-j][k] = (-1)^k Q[j][k], so even modes need only the sums
 // b_j + b_{ny-1-j} and odd modes the differences (and the middle row of an odd ny only
 // reaches even modes). The modes go four at a time (vec4), so each column value is loaded
 // once per four modes. Needs ny <= MAX_NY.
+// MAX_NY and LANES come from the module's header, chosen for the batch's ny
+// (src/gpu/kernels/mod.rs, `Columns`: 64 x 64, 128 x 32 or 256 x 16, 16 KiB of scratch each), and
+// so do the workgroup size (LANES) and the dispatch (ceil(nx/LANES), E, 1). A thread's loops run
+// about ny^2 / 8 trips in all (under 9,000 at ny = 256), far below the 65,535 of a capped Mesa.
 // Reads u_out/v_out (the predicted field).
 
-const MAX_NY: u32 = 64u;
-const LANES: u32 = 64u;
-var<workgroup> column: array<f32, 4096>; // [j * LANES + lane], MAX_NY * LANES
+var<workgroup> column: array<f32, MAX_NY * LANES>; // [j * LANES + lane]
 
-@compute @workgroup_size(64, 1, 1)
+@compute @workgroup_size(LANES, 1, 1)
 fn pressure_rhs(@builtin(global_invocation_id) g: vec3<u32>, @builtin(local_invocation_id) l: vec3<u32>) {
     let i = g.x;
     let e = g.y;

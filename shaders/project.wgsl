@@ -1,7 +1,8 @@
 // Projection, in two passes.
 //
-// `pressure_back`: p(i, j) = sum_k Q[j][k] phat[e][k][i] (Pa). Dispatch (ceil(nx/64), E, 1);
-//   thread (i, e) owns column i (modes kept in lane-interleaved workgroup scratch; ny <= 64).
+// `pressure_back`: p(i, j) = sum_k Q[j][k] phat[e][k][i] (Pa). Dispatch (ceil(nx/LANES), E, 1);
+//   thread (i, e) owns column i (modes kept in lane-interleaved workgroup scratch; ny <= MAX_NY;
+//   MAX_NY, LANES and the workgroup size from the module's header, as in pressure_rhs.wgsl).
 //   Mirror symmetry halves the work: with E_j, O_j the sums over even and odd k,
 //   p(j) = E_j + O_j and p(ny-1-j) = E_j - O_j; the middle row of an odd ny is E_j alone.
 // `project`: u <- u - dt / rho * (p(i, j) - p(i-1, j)) / dx,  v <- v - dt / rho * (p(i, j) - p(i, j-1)) / dy.
@@ -9,10 +10,9 @@
 //   p(nx, j) = -p(nx-1, j) (p = 0 on the face). Dispatch (ceil((nx+1)/64), ny+1, E); thread
 //   (i, j, e) owns u face (i, j) and v face (i, j). Writes u_out/v_out in place.
 
-const LANES: u32 = 64u;
-var<workgroup> modes: array<f32, 4096>; // [k * LANES + lane]
+var<workgroup> modes: array<f32, MAX_NY * LANES>; // [k * LANES + lane]
 
-@compute @workgroup_size(64, 1, 1)
+@compute @workgroup_size(LANES, 1, 1)
 fn pressure_back(@builtin(global_invocation_id) g: vec3<u32>, @builtin(local_invocation_id) l: vec3<u32>) {
     let i = g.x;
     let e = g.y;

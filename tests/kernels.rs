@@ -1,5 +1,7 @@
 //! Each GPU kernel equals its plain-Rust twin (`sim::cpu`) on an awkward size: 3 environments
 //! of 37 x 11 cells (not multiples of any workgroup), random fields and a random solid body.
+//! The column kernels (`pressure_rhs`, `pressure_back`) also on tall grids, one per column
+//! variant above 64 cells (`gpu::kernels::Columns`), and a whole control step at ny = 128.
 
 mod common;
 
@@ -14,6 +16,16 @@ use fluxswarm_gpu::sim::{GpuBatch, Stage};
 const E: usize = 3;
 const NX: u32 = 37;
 const NY: u32 = 11;
+
+/// Tall grids (nx, ny): the 128 x 32 column variant (100 cells), the 256 x 16 one just past
+/// 128 cells and at its top (where the CPU stages take their FFT-based transforms); no nx is a
+/// multiple of the 32 or 16 columns of a workgroup.
+const TALL: [(u32, u32); 3] = [(41, 100), (37, 129), (23, 256)];
+const TALL_ENVS: usize = 2;
+
+fn tall_batch(ctx: &GpuContext, nx: u32, ny: u32) -> GpuBatch {
+    GpuBatch::new(ctx, &small_config(nx, ny, &[]), TALL_ENVS).unwrap()
+}
 
 fn batch(ctx: &GpuContext, scheme: &str) -> GpuBatch {
     batch_with(ctx, scheme, "euler")
@@ -35,16 +47,21 @@ fn batch_with(ctx: &GpuContext, scheme: &str, trace: &str) -> GpuBatch {
 /// (a quarter of the cells partly or fully solid, moving) and random inlet values.
 fn randomise(batch: &mut GpuBatch, seed: u64) -> (Vec<f32>, Vec<f32>, Vec<[f32; 4]>, Vec<f32>) {
     let g = *batch.grid();
+    let n_env = batch.n_env();
     let mut n = Noise::new(seed);
-    let u: Vec<f32> = n.vec(E * g.n_u(), 0.2).iter().map(|x| x + 0.15).collect();
-    let v = n.vec(E * g.n_v(), 0.1);
+    let u: Vec<f32> = n
+        .vec(n_env * g.n_u(), 0.2)
+        .iter()
+        .map(|x| x + 0.15)
+        .collect();
+    let v = n.vec(n_env * g.n_v(), 0.1);
     let mut body = Vec::new();
-    for e in 0..E {
+    for e in 0..n_env {
         let cells = random_body(&mut n, g.n_cells());
         batch.set_body(e, &cells).unwrap();
         body.extend(cells);
     }
-    let inlet = n.vec(E * batch.substeps(), 0.3);
+    let inlet = n.vec(n_env * batch.substeps(), 0.3);
     batch.write_all(FieldBinding::UIn, &u);
     batch.write_all(FieldBinding::VIn, &v);
     batch.write_all(FieldBinding::Inlet, &inlet);
@@ -106,24 +123,29 @@ fn advect_maccormack_rk2_matches_cpu() {
 #[test]
 fn pressure_rhs_matches_cpu() {
     let (_lock, ctx) = common::gpu();
-    let b = batch(&ctx, "maccormack");
+    rhs_matches(&batch(&ctx, "maccormack"), "37 x 11");
+}
+
+/// The kernel's modes and column maxima of |div u*| against the CPU stage's on random fields.
+fn rhs_matches(b: &GpuBatch, size: &str) {
     let g = *b.grid();
+    let n_env = b.n_env();
     let mut n = Noise::new(11);
-    let u = n.vec(E * g.n_u(), 0.3);
-    let v = n.vec(E * g.n_v(), 0.1);
+    let u = n.vec(n_env * g.n_u(), 0.3);
+    let v = n.vec(n_env * g.n_v(), 0.1);
     b.write_all(FieldBinding::UOut, &u);
     b.write_all(FieldBinding::VOut, &v);
     b.run_stages(&[Stage::PressureRhs], 0, 1).unwrap();
     let poisson = b.read_all(FieldBinding::Poisson).unwrap();
     let (modes, divstar) = cpu::pressure_rhs(b.params(), &poisson, &u, &v);
     assert_close(
-        "modes",
+        &format!("modes at {size}"),
         &b.read_all(FieldBinding::Modes).unwrap(),
         &modes,
         1e-5,
     );
     assert_close(
-        "divstar",
+        &format!("divstar at {size}"),
         &b.read_all(FieldBinding::DivStar).unwrap(),
         &divstar,
         1e-6,
@@ -173,21 +195,42 @@ fn pressure_scan_matches_cpu_thomas() {
 #[test]
 fn project_matches_cpu() {
     let (_lock, ctx) = common::gpu();
-    let b = batch(&ctx, "maccormack");
+    project_matches(&batch(&ctx, "maccormack"), "37 x 11");
+}
+
+/// Both column kernels on each tall grid, one batch per grid (building a batch's pipelines
+/// takes seconds on SwiftShader).
+#[test]
+fn pressure_rhs_and_project_match_cpu_on_tall_grids() {
+    let (_lock, ctx) = common::gpu();
+    for (nx, ny) in TALL {
+        let b = tall_batch(&ctx, nx, ny);
+        let size = format!("{nx} x {ny}");
+        rhs_matches(&b, &size);
+        project_matches(&b, &size);
+    }
+}
+
+/// `pressure_back` and `project` against the CPU stage on random modes and velocities.
+fn project_matches(b: &GpuBatch, size: &str) {
     let g = *b.grid();
+    let n_env = b.n_env();
     let mut n = Noise::new(17);
-    let modes = n.vec(E * g.n_cells(), 50.0);
-    let mut u = n.vec(E * g.n_u(), 0.3);
-    let mut v = n.vec(E * g.n_v(), 0.1);
+    let modes = n.vec(n_env * g.n_cells(), 50.0);
+    let mut u = n.vec(n_env * g.n_u(), 0.3);
+    let mut v = n.vec(n_env * g.n_v(), 0.1);
     b.write_all(FieldBinding::Modes, &modes);
     b.write_all(FieldBinding::UOut, &u);
     b.write_all(FieldBinding::VOut, &v);
     b.run_stages(&[Stage::Project], 0, 1).unwrap();
     let poisson = b.read_all(FieldBinding::Poisson).unwrap();
     let p = cpu::project(b.params(), &poisson, &modes, &mut u, &mut v);
-    assert_close("p", &b.read_all(FieldBinding::Pressure).unwrap(), &p, 1e-5);
-    assert_close("u", &b.read_all(FieldBinding::UOut).unwrap(), &u, 1e-5);
-    assert_close("v", &b.read_all(FieldBinding::VOut).unwrap(), &v, 1e-5);
+    let gpu_p = b.read_all(FieldBinding::Pressure).unwrap();
+    assert_close(&format!("p at {size}"), &gpu_p, &p, 1e-5);
+    let gpu_u = b.read_all(FieldBinding::UOut).unwrap();
+    assert_close(&format!("u at {size}"), &gpu_u, &u, 1e-5);
+    let gpu_v = b.read_all(FieldBinding::VOut).unwrap();
+    assert_close(&format!("v at {size}"), &gpu_v, &v, 1e-5);
 }
 
 #[test]
@@ -235,26 +278,32 @@ fn diagnostics_match_cpu_and_count_non_finite_values() {
 
 #[test]
 fn whole_control_step_matches_cpu() {
-    whole_control_step_matches_cpu_with("sequential");
+    whole_control_step_matches_cpu_with(NX, NY, E, "sequential");
 }
 
 #[test]
 fn whole_control_step_with_the_scan_sweep_matches_cpu() {
-    whole_control_step_matches_cpu_with("scan");
+    whole_control_step_matches_cpu_with(NX, NY, E, "scan");
 }
 
-fn whole_control_step_matches_cpu_with(sweep: &str) {
+/// ny = 128: the 128 x 32 column variant in a whole control step.
+#[test]
+fn whole_control_step_on_a_tall_grid_matches_cpu() {
+    whole_control_step_matches_cpu_with(NX, 128, TALL_ENVS, "sequential");
+}
+
+fn whole_control_step_matches_cpu_with(nx: u32, ny: u32, n_env: usize, sweep: &str) {
     let (_lock, ctx) = common::gpu();
     let r = small_config(
-        NX,
-        NY,
+        nx,
+        ny,
         &[
             "time.substeps=5",
             "time.control_dt_s=0.00125",
             &format!("solver.pressure_sweep={sweep}"),
         ],
     );
-    let mut b = GpuBatch::new(&ctx, &r, E).unwrap();
+    let mut b = GpuBatch::new(&ctx, &r, n_env).unwrap();
     assert_eq!(b.pressure_sweep(), sweep);
     let (u, v, body, _) = randomise(&mut b, 23);
     let poisson = b.read_all(FieldBinding::Poisson).unwrap();
@@ -264,15 +313,15 @@ fn whole_control_step_matches_cpu_with(sweep: &str) {
         poisson,
         u,
         v,
-        p: vec![0.0; E * b.grid().n_cells()],
+        p: vec![0.0; n_env * b.grid().n_cells()],
         body,
-        divstar: vec![0.0; E * b.grid().nx],
+        divstar: vec![0.0; n_env * b.grid().nx],
         members: Vec::new(),
         actions: Vec::new(),
         boxes: Vec::new(),
     };
     // The inlet values the batch will use for this step.
-    let inlet: Vec<f32> = (0..E)
+    let inlet: Vec<f32> = (0..n_env)
         .flat_map(|_| (0..5).map(|s| b.waveform().at((s as f64 + 1.0) * 0.00125 / 5.0) as f32))
         .collect();
     let health = b.step().unwrap();
@@ -295,7 +344,7 @@ fn whole_control_step_matches_cpu_with(sweep: &str) {
         &reference.p,
         1e-4,
     );
-    for e in 0..E {
+    for e in 0..n_env {
         let (h, c) = (health[e], cpu_health[e]);
         assert!((h.flux_max - c.flux_max).abs() <= 1e-4 * c.flux_max.abs());
     }

@@ -7,6 +7,7 @@ mod common;
 
 use common::small_config;
 use fluxswarm_gpu::config::Config;
+use fluxswarm_gpu::gpu::GpuContext;
 use fluxswarm_gpu::gpu::kernels::FieldBinding;
 use fluxswarm_gpu::sim::FlowBatch;
 use fluxswarm_gpu::sim::health::DIV_TOLERANCE;
@@ -175,60 +176,79 @@ fn divergence_free_and_conservative_around_a_solid_body() {
     assert!(at(0.01, 0.001) < 0.2 * at(0.01, 0.0004).max(at(0.01, 0.0016)));
 }
 
-/// A vessel of `ny` cells of 0.1 mm across (ny x 0.1 mm high), `nx` long, no swarm: wider
-/// vessels than the WGSL kernels hold (ny > 64) run on the CPU backend.
-fn tall(nx: u32, ny: u32, extra: &[&str]) -> fluxswarm_gpu::config::Resolved {
-    let mut sets = vec!["solver.backend=native"];
-    sets.extend_from_slice(extra);
-    small_config(nx, ny, &sets)
+/// A vessel of `ny` cells of 0.1 mm across (ny x 0.1 mm high), `nx` long, no swarm: on the
+/// CPU stages, then, given a device, on the WGSL kernels (their column variants for ny > 64,
+/// `gpu::kernels::Columns`).
+fn tall(kernels: Option<&GpuContext>, nx: u32, ny: u32, extra: &[&str]) -> Vec<Box<dyn FlowBatch>> {
+    let r = small_config(nx, ny, extra);
+    let mut batches: Vec<Box<dyn FlowBatch>> = vec![Box::new(CpuBatch::new(&r, 1).unwrap())];
+    if let Some(ctx) = kernels {
+        batches.push(Box::new(GpuBatch::new(ctx, &r, 1).unwrap()));
+    }
+    batches
 }
 
-/// The developed Poiseuille flow of a tall grid (ny = 128, 256, including the FFT-based
-/// y-transforms from 192 cells) stays developed: after 40 control steps (0.2 s) the
-/// mid-channel profile is within 0.1 % of the parabola and -dp/dx within 2 % of 8 mu U / H^2.
+/// The developed Poiseuille flow of a tall grid (ny = 128, 256, including the CPU's FFT-based
+/// y-transforms from 192 cells), on both backends, stays developed: after 40 control steps
+/// (0.2 s) the mid-channel profile is within 0.1 % of the parabola and -dp/dx within 2 % of 8 mu U / H^2.
 /// Without the balance of diffusion and the projection's pressure gradient the centreline
 /// would lose nu |u''| t = 2.8 % (ny = 128) or 0.7 % (ny = 256) of U in that time.
 #[test]
 fn developed_poiseuille_holds_on_tall_grids() {
+    let (_lock, ctx) = common::gpu();
     for ny in [128u32, 256] {
         let u0 = 0.05;
-        let r = tall(24, ny, &["inlet.points=[[0.0, 0.05], [0.5, 0.05]]"]);
-        let mut b = CpuBatch::new(&r, 1).unwrap();
-        let g = *b.grid();
-        for _ in 0..40 {
-            assert!(b.step().unwrap()[0].is_finite());
+        for mut b in tall(
+            Some(&ctx),
+            24,
+            ny,
+            &["inlet.points=[[0.0, 0.05], [0.5, 0.05]]"],
+        ) {
+            let name = b.backend_name();
+            let g = *b.grid();
+            for _ in 0..40 {
+                assert!(b.step().unwrap()[0].is_finite());
+            }
+            let f = b.fields(0).unwrap();
+            let ux = f.ux_cells();
+            let i = g.nx / 2;
+            let (mut num, mut den) = (0.0, 0.0);
+            for j in 0..g.ny {
+                let exact = g.inlet_profile(u0, j);
+                num += (ux[j * g.nx + i] as f64 - exact).powi(2);
+                den += exact * exact;
+            }
+            let error = (num / den).sqrt();
+            let p_col =
+                |i: usize| (0..g.ny).map(|j| f.p[j * g.nx + i] as f64).sum::<f64>() / g.ny as f64;
+            let grad = (p_col(4) - p_col(19)) / (15.0 * g.dx());
+            let exact_grad = 8.0 * 3e-3 * u0 / (g.height_m * g.height_m);
+            println!(
+                "ny = {ny}, {name}: L2 error {error:.3e}; -dp/dx = {grad:.4} Pa/m (exact {exact_grad:.4})"
+            );
+            assert!(error <= 1e-3, "ny = {ny}, {name}: L2 error {error}");
+            assert!(
+                (grad / exact_grad - 1.0).abs() <= 0.02,
+                "ny = {ny}, {name}: {grad} vs {exact_grad}"
+            );
         }
-        let f = b.fields(0).unwrap();
-        let ux = f.ux_cells();
-        let i = g.nx / 2;
-        let (mut num, mut den) = (0.0, 0.0);
-        for j in 0..g.ny {
-            let exact = g.inlet_profile(u0, j);
-            num += (ux[j * g.nx + i] as f64 - exact).powi(2);
-            den += exact * exact;
-        }
-        let error = (num / den).sqrt();
-        let p_col =
-            |i: usize| (0..g.ny).map(|j| f.p[j * g.nx + i] as f64).sum::<f64>() / g.ny as f64;
-        let grad = (p_col(4) - p_col(19)) / (15.0 * g.dx());
-        let exact_grad = 8.0 * 3e-3 * u0 / (g.height_m * g.height_m);
-        println!(
-            "ny = {ny}: L2 error {error:.3e}; -dp/dx = {grad:.4} Pa/m (exact {exact_grad:.4})"
-        );
-        assert!(error <= 1e-3, "ny = {ny}: L2 error {error}");
-        assert!(
-            (grad / exact_grad - 1.0).abs() <= 0.02,
-            "ny = {ny}: {grad} vs {exact_grad}"
-        );
     }
 }
 
-/// Mass conservation under the triphasic inlet through the systole on tall grids.
+/// Mass conservation under the triphasic inlet through the systole on tall grids: the CPU
+/// backend at ny = 128 and 256, the kernels at 256 (their widest column variant, where the CPU
+/// takes its FFT path). The kernels' 128-cell variant is checked by the Poiseuille test above
+/// and `whole_control_step_on_a_tall_grid_matches_cpu` (tests/kernels.rs); its conservation run
+/// here would add 25 s to the SwiftShader pass (the 256 one takes 34 s there, 6 s on lavapipe).
 #[test]
 fn triphasic_inlet_conserves_mass_on_tall_grids() {
+    let (_lock, ctx) = common::gpu();
     for ny in [128u32, 256] {
-        let mut b = CpuBatch::new(&tall(100, ny, &[]), 1).unwrap();
-        check_conservation(&mut b, 30, &format!("100 x {ny} on the CPU backend"));
+        let kernels = (ny == 256).then_some(&ctx);
+        for mut b in tall(kernels, 100, ny, &[]) {
+            let label = format!("100 x {ny} on the {} backend", b.backend_name());
+            check_conservation(b.as_mut(), 30, &label);
+        }
     }
 }
 

@@ -3,7 +3,7 @@
 //! [`super::kernels::Entry::module_source`]), `common.wgsl`, the samplers (`sample.wgsl`, once
 //! per velocity source) and the kernel's file without its other entry points.
 
-use super::kernels::ENTRIES;
+use super::kernels::{Columns, ENTRIES};
 
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 pub const SAMPLE: &str = include_str!("../../shaders/sample.wgsl");
@@ -21,14 +21,19 @@ pub const LOOP_PROBE: &str = include_str!("../../shaders/loop_probe.wgsl");
 pub const SOURCES: [&str; 4] = ["in", "diffused", "hat", "out"];
 
 /// (file name, full module source) of every shader module the program builds: one per fluid
-/// entry point, plus the preludes alone (all storage declared `read`) and the loop probe.
+/// entry point (the column kernels in their first variant; `kernels` tests every variant),
+/// plus the preludes alone (all storage declared `read`) and the loop probe.
 pub fn all_modules() -> Vec<(&'static str, String)> {
     let prelude = format!("{}\n{COMMON}\n{}", read_only_header(), samplers());
     let mut out = vec![
         ("common.wgsl", format!("{}\n{COMMON}", read_only_header())),
         ("sample.wgsl", prelude),
     ];
-    out.extend(ENTRIES.iter().map(|e| (e.file, e.module_source())));
+    out.extend(
+        ENTRIES
+            .iter()
+            .map(|e| (e.file, e.module_source(Columns::ALL[0]))),
+    );
     out.push(("loop_probe.wgsl", LOOP_PROBE.to_string()));
     out
 }
@@ -68,10 +73,10 @@ pub fn entry_points(kernel: &str) -> Vec<&str> {
     let mut names = Vec::new();
     let mut lines = kernel.lines();
     while let Some(line) = lines.next() {
-        if line.starts_with("@compute") {
-            if let Some(name) = fn_name(line).or_else(|| lines.next().and_then(fn_name)) {
-                names.push(name);
-            }
+        if line.starts_with("@compute")
+            && let Some(name) = fn_name(line).or_else(|| lines.next().and_then(fn_name))
+        {
+            names.push(name);
         }
     }
     names

@@ -51,11 +51,6 @@ pub enum SimError {
     Empty,
     #[error(transparent)]
     Checkpoint(#[from] crate::checkpoint::CheckpointError),
-    #[error(
-        "the WGSL pressure kernels hold at most {limit} cells across the channel per column and \
-         domain.ny is {ny}: run it on the CPU backend (`--set solver.backend=native`, or `auto`)"
-    )]
-    TooTallForKernels { ny: usize, limit: usize },
     #[error("GPU self-check failed: {0}")]
     SelfCheck(String),
     #[error("{what}: {got} values given where the batch holds {want}")]
@@ -82,10 +77,6 @@ pub enum Stage {
     /// Members sampled, forced and moved (reads the projected velocity, `UOut`/`VOut`).
     MoveMembers,
 }
-
-/// Most cells across the channel the WGSL pressure kernels hold per column (`MAX_NY` in
-/// `shaders/pressure_rhs.wgsl` and `project.wgsl`).
-pub const WGSL_MAX_NY: usize = 64;
 
 /// Pressure iterations per substep: the fast solver is exact for the channel's matrix.
 pub const PRESSURE_ITERATIONS_PER_SUBSTEP: u32 = 1;
@@ -212,12 +203,6 @@ impl GpuBatch {
     pub fn new(ctx: &GpuContext, resolved: &Resolved, n_env: usize) -> Result<Self, SimError> {
         let core = BatchCore::new(resolved, n_env)?;
         let grid = core.grid;
-        if grid.ny > WGSL_MAX_NY {
-            return Err(SimError::TooTallForKernels {
-                ny: grid.ny,
-                limit: WGSL_MAX_NY,
-            });
-        }
         let max_env = max_batch(&ctx.limits, &grid);
         if n_env > max_env {
             return Err(SimError::TooLarge {
@@ -234,8 +219,9 @@ impl GpuBatch {
         let n_members = core.n_members;
         let params = core.params;
         let device = &ctx.device;
-        // Fails with GpuError::Limit where a kernel needs more than the adapter allows.
-        let pipelines = Pipelines::new(ctx)?;
+        // The column kernels are generated for this ny (`gpu::kernels::Columns`). Fails with
+        // GpuError::Limit where a kernel needs more than the adapter allows.
+        let pipelines = Pipelines::new(ctx, grid.ny as u32)?;
         let stride = ctx.limits.min_uniform_buffer_offset_alignment.max(16);
         let buffers = Self::create_buffers(ctx, &grid, &params, n_env, substeps, n_members, stride);
         let bind = Self::bind_groups(device, &pipelines, &buffers);

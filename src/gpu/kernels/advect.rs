@@ -2,15 +2,17 @@
 //! Brinkman). Semi-Lagrangian: diffuse and advect, two dispatches; MacCormack: diffuse,
 //! predict and correct, three. Grid: (ceil((nx+1)/64), ny+1, E).
 
-use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side, groups};
+use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Shape, Side, groups};
 use crate::config::Advection;
 
 pub const DIFFUSE: Entry = Entry {
     name: "diffuse",
     file: "advect.wgsl",
     source: crate::gpu::shaders::ADVECT,
-    workgroup: [64, 1, 1],
-    workgroup_bytes: 0,
+    shape: Shape::Fixed {
+        workgroup: [64, 1, 1],
+        workgroup_bytes: 0,
+    },
     reads: &[UIn, VIn, Members, SwarmBox],
     writes: &[Body, WU, WV],
 };
@@ -19,8 +21,10 @@ pub const ADVECT_DIFFUSE: Entry = Entry {
     name: "advect_diffuse",
     file: "advect.wgsl",
     source: crate::gpu::shaders::ADVECT,
-    workgroup: [64, 1, 1],
-    workgroup_bytes: 0,
+    shape: Shape::Fixed {
+        workgroup: [64, 1, 1],
+        workgroup_bytes: 0,
+    },
     reads: &[UIn, VIn, Body, Inlet, WU, WV, SwarmBox],
     writes: &[UOut, VOut],
 };
@@ -29,8 +33,10 @@ pub const ADVECT_PREDICT: Entry = Entry {
     name: "advect_predict",
     file: "advect.wgsl",
     source: crate::gpu::shaders::ADVECT,
-    workgroup: [64, 1, 1],
-    workgroup_bytes: 0,
+    shape: Shape::Fixed {
+        workgroup: [64, 1, 1],
+        workgroup_bytes: 0,
+    },
     reads: &[UIn, VIn, Inlet, WU, WV],
     writes: &[UHat, VHat],
 };
@@ -39,8 +45,10 @@ pub const MACCORMACK_CORRECT: Entry = Entry {
     name: "maccormack_correct",
     file: "advect.wgsl",
     source: crate::gpu::shaders::ADVECT,
-    workgroup: [64, 1, 1],
-    workgroup_bytes: 0,
+    shape: Shape::Fixed {
+        workgroup: [64, 1, 1],
+        workgroup_bytes: 0,
+    },
     reads: &[UIn, VIn, UHat, VHat, Body, WU, WV, SwarmBox],
     writes: &[UOut, VOut],
 };

@@ -1,14 +1,16 @@
 //! `shaders/diagnostics.wgsl`: per-cross-section statistics, then a per-environment reduction
 //! into the health buffer. Grids: (ceil((nx+1)/64), E, 1) and (E, 1, 1).
 
-use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side, groups};
+use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Shape, Side, groups};
 
 pub const DIAG_COLUMNS: Entry = Entry {
     name: "diag_columns",
     file: "diagnostics.wgsl",
     source: crate::gpu::shaders::DIAGNOSTICS,
-    workgroup: [64, 1, 1],
-    workgroup_bytes: 0,
+    shape: Shape::Fixed {
+        workgroup: [64, 1, 1],
+        workgroup_bytes: 0,
+    },
     reads: &[UOut, VOut, Pressure],
     writes: &[ColStats],
 };
@@ -17,8 +19,10 @@ pub const DIAG_REDUCE: Entry = Entry {
     name: "diag_reduce",
     file: "diagnostics.wgsl",
     source: crate::gpu::shaders::DIAGNOSTICS,
-    workgroup: [64, 1, 1],
-    workgroup_bytes: 2048,
+    shape: Shape::Fixed {
+        workgroup: [64, 1, 1],
+        workgroup_bytes: 2048,
+    },
     reads: &[DivStar, ColStats],
     writes: &[Health],
 };

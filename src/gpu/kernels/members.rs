@@ -2,14 +2,16 @@
 //! (grid (ceil(nx/64), ny, E)) and moved after the projection (one workgroup per environment,
 //! grid (E, 1, 1)). Recorded only when the batch has members.
 
-use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side, groups};
+use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Shape, Side, groups};
 
 pub const PAINT_BODIES: Entry = Entry {
     name: "paint_bodies",
     file: "members.wgsl",
     source: crate::gpu::shaders::MEMBERS,
-    workgroup: [64, 1, 1],
-    workgroup_bytes: 0,
+    shape: Shape::Fixed {
+        workgroup: [64, 1, 1],
+        workgroup_bytes: 0,
+    },
     reads: &[Members, SwarmBox],
     writes: &[Body],
 };
@@ -18,8 +20,10 @@ pub const MOVE_MEMBERS: Entry = Entry {
     name: "move_members",
     file: "members.wgsl",
     source: crate::gpu::shaders::MEMBERS,
-    workgroup: [64, 1, 1],
-    workgroup_bytes: 1792,
+    shape: Shape::Fixed {
+        workgroup: [64, 1, 1],
+        workgroup_bytes: 1792,
+    },
     reads: &[UOut, VOut, Pressure, Thrust],
     writes: &[Members, MemberDiag, SwarmBox],
 };

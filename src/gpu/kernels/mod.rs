@@ -5,7 +5,8 @@
 //! [`FieldBinding`]; its module declares exactly those (`shaders.rs`), so that each kernel fits
 //! the 10 storage buffers per stage of the strictest driver we test on (SwiftShader). The bind
 //! groups of every pipeline, both sides of the velocity ping-pong, are built once per batch
-//! ([`Kernels::bind_groups`]).
+//! ([`Kernels::bind_groups`]). The two column kernels (`pressure_rhs`, `pressure_back`) are
+//! generated for the batch's grid ([`Columns`]): the pipelines are built per batch.
 
 pub mod advect;
 pub mod diagnostics;
@@ -34,6 +35,60 @@ pub const MAX_STORAGE_BUFFERS: u32 = 10;
 
 /// Invocations per workgroup that every entry point fits in (SwiftShader's and WebGPU's limit).
 pub const MAX_INVOCATIONS: u32 = 256;
+
+/// Bytes of workgroup memory that every entry point fits in (WebGPU's default limit).
+pub const MAX_WORKGROUP_BYTES: u32 = 16384;
+
+/// The layout of the column kernels (`pressure_rhs`, `pressure_back`) for a grid: one thread per
+/// column, `lanes` columns per workgroup, each column's `max_ny` values kept in lane-interleaved
+/// workgroup memory (`[j * LANES + lane]`). Every variant fills the same 16 KiB of workgroup
+/// memory (`max_ny * lanes` = 4096 f32, [`MAX_WORKGROUP_BYTES`]) with `lanes` <= 64 invocations:
+/// 64 x 64 up to ny = 64 (the layout the kernels always had), 128 x 32 up to 128, 256 x 16 up
+/// to 256 ([`crate::config::MAX_NY`]). The lanes only say which column a thread owns: each
+/// column's arithmetic is the same in every variant.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Columns {
+    /// Most cells across the channel a column holds (`MAX_NY` in the WGSL).
+    pub max_ny: u32,
+    /// Columns per workgroup, one thread each (`LANES`, the workgroup size).
+    pub lanes: u32,
+}
+
+impl Columns {
+    /// The variants the configuration's ny (1 ..= [`crate::config::MAX_NY`]) can take.
+    pub const ALL: [Columns; 3] = [
+        Columns::for_ny(64),
+        Columns::for_ny(128),
+        Columns::for_ny(256),
+    ];
+
+    /// The variant for ny cells across the channel: `max_ny` the next power of two from 64,
+    /// `lanes` what fills 16 KiB. Above ny = 4096 a column alone needs more than 16 KiB
+    /// (`lanes` stays 1): [`Entry::check`] then names the workgroup-memory limit.
+    pub const fn for_ny(ny: u32) -> Self {
+        let max_ny = if ny <= 64 { 64 } else { ny.next_power_of_two() };
+        let floats = MAX_WORKGROUP_BYTES / 4;
+        let lanes = if max_ny >= floats { 1 } else { floats / max_ny };
+        Self { max_ny, lanes }
+    }
+
+    /// Bytes of the column scratch.
+    pub const fn workgroup_bytes(self) -> u32 {
+        4 * self.max_ny * self.lanes
+    }
+}
+
+/// The workgroup of an entry point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Shape {
+    /// The same at every grid: size and bytes of `var<workgroup>` memory.
+    Fixed {
+        workgroup: [u32; 3],
+        workgroup_bytes: u32,
+    },
+    /// A column kernel: (LANES, 1, 1) and MAX_NY * LANES f32 of scratch, from [`Columns`].
+    Columns,
+}
 
 /// Storage bindings 2..=21 of the field buffers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -126,9 +181,8 @@ pub struct Entry {
     /// The kernel's file name and source (`shaders::*`).
     pub file: &'static str,
     pub source: &'static str,
-    pub workgroup: [u32; 3],
-    /// Bytes of `var<workgroup>` memory the entry point uses.
-    pub workgroup_bytes: u32,
+    /// Its workgroup size and `var<workgroup>` memory.
+    pub shape: Shape,
     pub reads: &'static [FieldBinding],
     pub writes: &'static [FieldBinding],
 }
@@ -155,8 +209,26 @@ impl Entry {
         (self.reads.len() + self.writes.len()) as u32
     }
 
-    pub fn invocations(&self) -> u32 {
-        self.workgroup.iter().product()
+    /// The workgroup size in the module built for `cols`.
+    pub fn workgroup(&self, cols: Columns) -> [u32; 3] {
+        match self.shape {
+            Shape::Fixed { workgroup, .. } => workgroup,
+            Shape::Columns => [cols.lanes, 1, 1],
+        }
+    }
+
+    /// Bytes of `var<workgroup>` memory the entry point uses in the module built for `cols`.
+    pub fn workgroup_bytes(&self, cols: Columns) -> u32 {
+        match self.shape {
+            Shape::Fixed {
+                workgroup_bytes, ..
+            } => workgroup_bytes,
+            Shape::Columns => cols.workgroup_bytes(),
+        }
+    }
+
+    pub fn invocations(&self, cols: Columns) -> u32 {
+        self.workgroup(cols).iter().product()
     }
 
     fn writes(&self, b: FieldBinding) -> bool {
@@ -167,15 +239,18 @@ impl Entry {
         self.reads.contains(&b) || self.writes(b)
     }
 
-    /// The module of this entry point alone: its storage declarations (every field buffer is
-    /// declared, so that the kernel file's other helpers compile; those the entry point does
-    /// not use are not part of its interface), then `common.wgsl`, the samplers and the kernel
-    /// file without its other entry points.
-    pub fn module_source(&self) -> String {
+    /// The module of this entry point alone, for the column layout `cols`: its storage
+    /// declarations (every field buffer is declared, so that the kernel file's other helpers
+    /// compile; those the entry point does not use are not part of its interface) and `MAX_NY`,
+    /// `LANES` (declared in every module, for the kernel file's shared scratch), then
+    /// `common.wgsl`, the samplers and the kernel file without its other entry points.
+    pub fn module_source(&self, cols: Columns) -> String {
         let mut header = format!(
             "// Module of entry point `{}` ({}): storage bindings from its table in \
-             src/gpu/kernels/.\n",
-            self.name, self.file
+             src/gpu/kernels/.\n\
+             const MAX_NY: u32 = {}u; // column layout (Columns in src/gpu/kernels/mod.rs)\n\
+             const LANES: u32 = {}u;\n",
+            self.name, self.file, cols.max_ny, cols.lanes
         );
         for b in FieldBinding::ALL {
             let (name, ty) = b.wgsl();
@@ -219,8 +294,15 @@ impl Entry {
         entries
     }
 
-    /// Whether the device can run this entry point; the first limit it exceeds otherwise.
-    pub fn check(&self, limits: &wgpu::Limits, adapter: &str) -> Result<(), GpuError> {
+    /// Whether the device can run this entry point, built for `cols`; the first limit it
+    /// exceeds otherwise.
+    pub fn check(
+        &self,
+        limits: &wgpu::Limits,
+        adapter: &str,
+        cols: Columns,
+    ) -> Result<(), GpuError> {
+        let workgroup = self.workgroup(cols);
         let needs = [
             (
                 "max_storage_buffers_per_shader_stage",
@@ -229,27 +311,27 @@ impl Entry {
             ),
             (
                 "max_compute_invocations_per_workgroup",
-                self.invocations(),
+                self.invocations(cols),
                 limits.max_compute_invocations_per_workgroup,
             ),
             (
                 "max_compute_workgroup_size_x",
-                self.workgroup[0],
+                workgroup[0],
                 limits.max_compute_workgroup_size_x,
             ),
             (
                 "max_compute_workgroup_size_y",
-                self.workgroup[1],
+                workgroup[1],
                 limits.max_compute_workgroup_size_y,
             ),
             (
                 "max_compute_workgroup_size_z",
-                self.workgroup[2],
+                workgroup[2],
                 limits.max_compute_workgroup_size_z,
             ),
             (
                 "max_compute_workgroup_storage_size",
-                self.workgroup_bytes,
+                self.workgroup_bytes(cols),
                 limits.max_compute_workgroup_storage_size,
             ),
         ];
@@ -266,13 +348,23 @@ impl Entry {
     }
 }
 
-/// Creates pipelines and hands out their indices into a batch's [`BindGroups`].
+/// Creates pipelines (the column kernels for `columns`) and hands out their indices into a
+/// batch's [`BindGroups`].
 pub struct Builder<'a> {
     device: &'a wgpu::Device,
+    columns: Columns,
     layouts: Vec<(wgpu::BindGroupLayout, &'static Entry)>,
 }
 
-/// Every fluid pipeline (compiled once per device) and their bind group layouts.
+impl Builder<'_> {
+    /// The column layout the pipelines are built for.
+    pub fn columns(&self) -> Columns {
+        self.columns
+    }
+}
+
+/// Every fluid pipeline (compiled per batch: the column kernels follow its ny) and their bind
+/// group layouts.
 pub struct Kernels {
     pub advect: Advect,
     pub rhs: PressureRhs,
@@ -285,14 +377,17 @@ pub struct Kernels {
 }
 
 impl Kernels {
-    /// Checks every entry point against the device's limits (a typed error naming the kernel
-    /// and the limit, instead of a wgpu validation error), then builds the pipelines.
-    pub fn new(ctx: &GpuContext) -> Result<Self, GpuError> {
+    /// Checks every entry point, its column kernels built for `ny` cells across the channel,
+    /// against the device's limits (a typed error naming the kernel and the limit, instead of a
+    /// wgpu validation error), then builds the pipelines.
+    pub fn new(ctx: &GpuContext, ny: u32) -> Result<Self, GpuError> {
+        let columns = Columns::for_ny(ny);
         for entry in ENTRIES {
-            entry.check(&ctx.limits, &ctx.describe())?;
+            entry.check(&ctx.limits, &ctx.describe(), columns)?;
         }
         let mut b = Builder {
             device: &ctx.device,
+            columns,
             layouts: Vec::new(),
         };
         Ok(Self {
@@ -436,7 +531,7 @@ impl Pipeline {
         let device = b.device;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(entry.name),
-            source: wgpu::ShaderSource::Wgsl(entry.module_source().into()),
+            source: wgpu::ShaderSource::Wgsl(entry.module_source(b.columns).into()),
         });
         let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some(entry.name),
@@ -559,89 +654,147 @@ mod tests {
     use super::*;
     use crate::gpu::shaders;
 
-    /// Every entry point's module, as naga sees it: it binds exactly its table's buffers, with
-    /// `read` exactly where it does not write (so a `read` binding is never written), within
-    /// [`MAX_STORAGE_BUFFERS`], [`MAX_INVOCATIONS`] and the table's workgroup shape and memory.
+    /// Heights that pick every column variant, at and around its edges.
+    const HEIGHTS: [u32; 8] = [1, 20, 64, 65, 128, 129, 200, 256];
+
+    #[test]
+    fn the_column_layout_follows_the_grid_within_16_kib() {
+        let layouts: Vec<_> = HEIGHTS
+            .iter()
+            .map(|&ny| {
+                let c = Columns::for_ny(ny);
+                (c.max_ny, c.lanes)
+            })
+            .collect();
+        assert_eq!(
+            layouts,
+            [
+                (64, 64),
+                (64, 64),
+                (64, 64),
+                (128, 32),
+                (128, 32),
+                (256, 16),
+                (256, 16),
+                (256, 16)
+            ]
+        );
+        assert_eq!(Columns::for_ny(crate::config::MAX_NY), Columns::ALL[2]);
+        for c in Columns::ALL {
+            assert_eq!(c.workgroup_bytes(), MAX_WORKGROUP_BYTES, "{c:?}");
+        }
+        // Past 4096 cells one column alone is over 16 KiB: the limit check says so.
+        let c = Columns::for_ny(5000);
+        assert_eq!((c.max_ny, c.lanes), (8192, 1));
+        let err = pressure_rhs::PRESSURE_RHS
+            .check(&wgpu::Limits::default(), "webgpu", c)
+            .unwrap_err();
+        assert!(matches!(
+            err,
+            GpuError::Limit {
+                limit: "max_compute_workgroup_storage_size",
+                need: 32768,
+                have: 16384,
+                ..
+            }
+        ));
+    }
+
+    /// Every entry point's module, as naga sees it, in every column variant: it binds exactly
+    /// its table's buffers, with `read` exactly where it does not write (so a `read` binding is
+    /// never written), within [`MAX_STORAGE_BUFFERS`], [`MAX_INVOCATIONS`] and the table's
+    /// workgroup shape and memory.
     #[test]
     fn every_entry_point_binds_its_table_within_the_limits() {
         let mut failures = Vec::new();
         for entry in ENTRIES {
-            let source = entry.module_source();
-            let module = naga::front::wgsl::parse_str(&source)
-                .unwrap_or_else(|e| panic!("{}: {}", entry.name, e.emit_to_string(&source)));
-            let info = Validator::new(ValidationFlags::all(), Capabilities::all())
-                .validate(&module)
-                .unwrap_or_else(|e| panic!("{}: {}", entry.name, e.emit_to_string(&source)));
-            assert_eq!(module.entry_points.len(), 1, "{}", entry.name);
-            let ep = &module.entry_points[0];
-            assert_eq!(ep.name, entry.name);
-            let uses = info.get_entry_point(0);
-            let mut layouter = naga::proc::Layouter::default();
-            layouter.update(module.to_ctx()).unwrap();
-            let (mut used, mut written) = (BTreeSet::new(), BTreeSet::new());
-            let mut workgroup_bytes = 0;
-            for (handle, var) in module.global_variables.iter() {
-                let u = uses[handle];
-                if u.is_empty() {
-                    continue;
-                }
-                match (var.space, &var.binding) {
-                    (AddressSpace::WorkGroup, _) => workgroup_bytes += layouter[var.ty].size,
-                    (AddressSpace::Uniform, Some(b)) => {
-                        assert!(b.group == 0 && b.binding <= 1, "{}: {b:?}", entry.name)
-                    }
-                    (AddressSpace::Storage { access }, Some(b)) => {
-                        assert_eq!(b.group, 0);
-                        let field = FieldBinding::from_index(b.binding).unwrap();
-                        used.insert(field);
-                        let writes = u.contains(GlobalUse::WRITE);
-                        if writes {
-                            written.insert(field);
-                        }
-                        let declared_rw = access.contains(StorageAccess::STORE);
-                        if !declared_rw && writes {
-                            failures.push(format!("{}: {field:?} is `read` but written", ep.name));
-                        }
-                        if declared_rw && !writes {
-                            failures.push(format!("{}: {field:?} is only read", ep.name));
-                        }
-                    }
-                    other => panic!("{}: unexpected global {other:?}", entry.name),
-                }
-            }
-            let table: BTreeSet<_> = entry.reads.iter().chain(entry.writes).copied().collect();
-            let table_writes: BTreeSet<_> = entry.writes.iter().copied().collect();
-            if used != table || written != table_writes {
-                failures.push(format!(
-                    "{}: the shader uses {used:?} and writes {written:?}; its table says {table:?} \
-                     and {table_writes:?}",
-                    ep.name
-                ));
-            }
-            if table.len() != entry.reads.len() + entry.writes.len() {
-                failures.push(format!("{}: a buffer is listed twice", ep.name));
-            }
-            if entry.storage_buffers() > MAX_STORAGE_BUFFERS {
-                failures.push(format!(
-                    "{}: {} storage buffers, above {MAX_STORAGE_BUFFERS}",
-                    ep.name,
-                    entry.storage_buffers()
-                ));
-            }
-            if ep.workgroup_size != entry.workgroup || entry.invocations() > MAX_INVOCATIONS {
-                failures.push(format!(
-                    "{}: workgroup {:?} (table {:?}, at most {MAX_INVOCATIONS} invocations)",
-                    ep.name, ep.workgroup_size, entry.workgroup
-                ));
-            }
-            if workgroup_bytes != entry.workgroup_bytes || workgroup_bytes > 16384 {
-                failures.push(format!(
-                    "{}: {workgroup_bytes} B of workgroup memory (table {}, WebGPU allows 16384)",
-                    ep.name, entry.workgroup_bytes
-                ));
+            for ny in HEIGHTS {
+                check_entry_module(entry, ny, &mut failures);
             }
         }
         assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    fn check_entry_module(entry: &Entry, ny: u32, failures: &mut Vec<String>) {
+        let cols = Columns::for_ny(ny);
+        let source = entry.module_source(cols);
+        let module = naga::front::wgsl::parse_str(&source)
+            .unwrap_or_else(|e| panic!("{}: {}", entry.name, e.emit_to_string(&source)));
+        let info = Validator::new(ValidationFlags::all(), Capabilities::all())
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{}: {}", entry.name, e.emit_to_string(&source)));
+        assert_eq!(module.entry_points.len(), 1, "{}", entry.name);
+        let ep = &module.entry_points[0];
+        assert_eq!(ep.name, entry.name);
+        let uses = info.get_entry_point(0);
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).unwrap();
+        let (mut used, mut written) = (BTreeSet::new(), BTreeSet::new());
+        let mut workgroup_bytes = 0;
+        for (handle, var) in module.global_variables.iter() {
+            let u = uses[handle];
+            if u.is_empty() {
+                continue;
+            }
+            match (var.space, &var.binding) {
+                (AddressSpace::WorkGroup, _) => workgroup_bytes += layouter[var.ty].size,
+                (AddressSpace::Uniform, Some(b)) => {
+                    assert!(b.group == 0 && b.binding <= 1, "{}: {b:?}", entry.name)
+                }
+                (AddressSpace::Storage { access }, Some(b)) => {
+                    assert_eq!(b.group, 0);
+                    let field = FieldBinding::from_index(b.binding).unwrap();
+                    used.insert(field);
+                    let writes = u.contains(GlobalUse::WRITE);
+                    if writes {
+                        written.insert(field);
+                    }
+                    let declared_rw = access.contains(StorageAccess::STORE);
+                    if !declared_rw && writes {
+                        failures.push(format!("{}: {field:?} is `read` but written", ep.name));
+                    }
+                    if declared_rw && !writes {
+                        failures.push(format!("{}: {field:?} is only read", ep.name));
+                    }
+                }
+                other => panic!("{}: unexpected global {other:?}", entry.name),
+            }
+        }
+        let table: BTreeSet<_> = entry.reads.iter().chain(entry.writes).copied().collect();
+        let table_writes: BTreeSet<_> = entry.writes.iter().copied().collect();
+        if used != table || written != table_writes {
+            failures.push(format!(
+                "{}: the shader uses {used:?} and writes {written:?}; its table says {table:?} \
+                 and {table_writes:?}",
+                ep.name
+            ));
+        }
+        if table.len() != entry.reads.len() + entry.writes.len() {
+            failures.push(format!("{}: a buffer is listed twice", ep.name));
+        }
+        if entry.storage_buffers() > MAX_STORAGE_BUFFERS {
+            failures.push(format!(
+                "{}: {} storage buffers, above {MAX_STORAGE_BUFFERS}",
+                ep.name,
+                entry.storage_buffers()
+            ));
+        }
+        let workgroup = entry.workgroup(cols);
+        if ep.workgroup_size != workgroup || entry.invocations(cols) > MAX_INVOCATIONS {
+            failures.push(format!(
+                "{} at ny = {ny}: workgroup {:?} (table {workgroup:?}, at most \
+                 {MAX_INVOCATIONS} invocations)",
+                ep.name, ep.workgroup_size
+            ));
+        }
+        let table_bytes = entry.workgroup_bytes(cols);
+        if workgroup_bytes != table_bytes || workgroup_bytes > MAX_WORKGROUP_BYTES {
+            failures.push(format!(
+                "{} at ny = {ny}: {workgroup_bytes} B of workgroup memory (table \
+                 {table_bytes}, WebGPU allows {MAX_WORKGROUP_BYTES})",
+                ep.name
+            ));
+        }
     }
 
     /// The table lists every `@compute` function of every kernel file, once.
@@ -679,14 +832,16 @@ mod tests {
             ..wgpu::Limits::default()
         };
         for entry in ENTRIES {
-            entry.check(&swiftshader, "swiftshader").unwrap();
+            for cols in Columns::ALL {
+                entry.check(&swiftshader, "swiftshader", cols).unwrap();
+            }
         }
         let eight = wgpu::Limits {
             max_storage_buffers_per_shader_stage: 8,
             ..swiftshader.clone()
         };
         let err = advect::MACCORMACK_CORRECT
-            .check(&eight, "eight")
+            .check(&eight, "eight", Columns::ALL[0])
             .unwrap_err();
         let text = err.to_string();
         assert!(
@@ -711,7 +866,7 @@ mod tests {
             ..swiftshader
         };
         let err = pressure_scan::PRESSURE_SCAN
-            .check(&small, "small")
+            .check(&small, "small", Columns::ALL[0])
             .unwrap_err();
         assert!(matches!(
             err,

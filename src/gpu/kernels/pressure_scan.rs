@@ -2,14 +2,16 @@
 //! of affine maps (the GPU variant of [`super::PressureSolve`], same factors and equations),
 //! in place on the modes buffer. Grid: (ny, E, 1) workgroups of 256 threads, one per mode.
 
-use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side};
+use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Shape, Side};
 
 pub const PRESSURE_SCAN: Entry = Entry {
     name: "pressure_scan",
     file: "pressure_scan.wgsl",
     source: crate::gpu::shaders::PRESSURE_SCAN,
-    workgroup: [256, 1, 1],
-    workgroup_bytes: 2048,
+    shape: Shape::Fixed {
+        workgroup: [256, 1, 1],
+        workgroup_bytes: 2048,
+    },
     reads: &[Poisson],
     writes: &[Modes],
 };

@@ -1,14 +1,16 @@
 //! `shaders/pressure_solve.wgsl`: per-mode tridiagonal (Thomas) solve along x, in place on the
 //! modes buffer. Grid: (ceil(ny/16), E, 1).
 
-use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side, groups};
+use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Shape, Side, groups};
 
 pub const PRESSURE_SOLVE: Entry = Entry {
     name: "pressure_solve",
     file: "pressure_solve.wgsl",
     source: crate::gpu::shaders::PRESSURE_SOLVE,
-    workgroup: [16, 1, 1],
-    workgroup_bytes: 0,
+    shape: Shape::Fixed {
+        workgroup: [16, 1, 1],
+        workgroup_bytes: 0,
+    },
     reads: &[Poisson],
     writes: &[Modes],
 };

@@ -1,14 +1,14 @@
 //! `shaders/project.wgsl`: pressure from the solved modes (one thread per column, grid
-//! (ceil(nx/64), E, 1)), then the velocity correction (grid (ceil((nx+1)/64), ny+1, E)).
+//! (ceil(nx/LANES), E, 1), LANES and the column scratch from the batch's ny: [`Columns`]), then
+//! the velocity correction (grid (ceil((nx+1)/64), ny+1, E)).
 
-use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Side, groups};
+use super::{Builder, Columns, Dims, Entry, FieldBinding::*, Pipeline, Shape, Side, groups};
 
 pub const PRESSURE_BACK: Entry = Entry {
     name: "pressure_back",
     file: "project.wgsl",
     source: crate::gpu::shaders::PROJECT,
-    workgroup: [64, 1, 1],
-    workgroup_bytes: 16384,
+    shape: Shape::Columns,
     reads: &[Modes, Poisson],
     writes: &[Pressure],
 };
@@ -17,8 +17,10 @@ pub const PROJECT: Entry = Entry {
     name: "project",
     file: "project.wgsl",
     source: crate::gpu::shaders::PROJECT,
-    workgroup: [64, 1, 1],
-    workgroup_bytes: 0,
+    shape: Shape::Fixed {
+        workgroup: [64, 1, 1],
+        workgroup_bytes: 0,
+    },
     reads: &[Pressure],
     writes: &[UOut, VOut],
 };
@@ -26,6 +28,7 @@ pub const PROJECT: Entry = Entry {
 pub struct Project {
     back: Pipeline,
     correct: Pipeline,
+    columns: Columns,
 }
 
 impl Project {
@@ -33,12 +36,22 @@ impl Project {
         Self {
             back: Pipeline::new(b, &PRESSURE_BACK),
             correct: Pipeline::new(b, &PROJECT),
+            columns: b.columns(),
         }
     }
 
     pub fn record(&self, pass: &mut super::Recorder<'_>, bind: Side<'_>, offset: u32, d: Dims) {
-        self.back
-            .dispatch(pass, bind, offset, [groups(d.nx, 64), d.n_env, 1]);
+        debug_assert!(
+            d.ny <= self.columns.max_ny,
+            "built for ny <= {}",
+            self.columns.max_ny
+        );
+        self.back.dispatch(
+            pass,
+            bind,
+            offset,
+            [groups(d.nx, self.columns.lanes), d.n_env, 1],
+        );
         self.correct.dispatch(
             pass,
             bind,

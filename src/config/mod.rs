@@ -30,8 +30,8 @@ pub const MAX_CFL: f64 = 1.0;
 /// paper's setup is exactly CFL = 1, which in f64 evaluates to 1 + 2e-16).
 pub const CFL_ROUNDING_ALLOWANCE: f64 = 1e-9;
 
-/// Largest ny on the CPU backend (the WGSL pressure kernels hold fewer per column:
-/// `sim::fluid::WGSL_MAX_NY`).
+/// Largest ny, on both backends (the WGSL column kernels pick their workgroup layout from ny:
+/// `gpu::kernels::Columns`).
 pub const MAX_NY: u32 = 256;
 
 /// Keys that may be absent from the default configuration but can be set.

@@ -156,7 +156,7 @@ pub fn max_batch(limits: &wgpu::Limits, grid: &Grid) -> usize {
 }
 
 /// The kernels' batch constants for `n_env` environments of this configuration (no GPU needed:
-/// the CPU twins and the native yardstick take the same struct).
+/// the CPU stages take the same struct).
 pub fn batch_params(resolved: &Resolved, n_env: usize) -> GpuParams {
     let config = &resolved.config;
     let grid = Grid::from_config(config);
@@ -514,8 +514,8 @@ impl GpuBatch {
     }
 
     /// The whole batch's current state as a [`BatchState`] (fields, body, members, raw actions,
-    /// swarm boxes, Poisson tables): the starting point of the CPU twins and the native
-    /// yardstick. A full read-back; not for the stepping loop.
+    /// swarm boxes, Poisson tables), as the CPU backend holds and steps it. A full read-back;
+    /// not for the stepping loop.
     pub fn to_cpu(&self) -> Result<BatchState, SimError> {
         self.cpu_batch_from(self.core.n_env, self.core.poisson.clone(), |w| {
             self.read_all(w)
@@ -866,22 +866,8 @@ impl FlowBatch for GpuBatch {
     }
 
     fn set_state(&mut self, state: &BatchState, forces: &[GpuMemberDiag]) -> Result<(), SimError> {
+        self.core.check_state(state, forces)?;
         let (ne, n, g) = (self.core.n_env, self.core.n_members, self.core.grid);
-        BatchCore::check_len("u faces of the batch", state.u.len(), ne * g.n_u())?;
-        BatchCore::check_len("v faces of the batch", state.v.len(), ne * g.n_v())?;
-        BatchCore::check_len(
-            "pressure cells of the batch",
-            state.p.len(),
-            ne * g.n_cells(),
-        )?;
-        BatchCore::check_len(
-            "body cells of the batch",
-            state.body.len(),
-            ne * g.n_cells(),
-        )?;
-        BatchCore::check_len("members of the batch", state.members.len(), ne * n)?;
-        BatchCore::check_len("actions of the batch", state.actions.len(), ne * n)?;
-        BatchCore::check_len("member forces of the batch", forces.len(), ne * n)?;
         self.write_all(FieldBinding::UIn, &state.u);
         self.write_all(FieldBinding::VIn, &state.v);
         self.write_all(FieldBinding::Pressure, &state.p);

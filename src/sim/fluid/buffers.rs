@@ -28,6 +28,35 @@ pub(super) struct Buffers {
     pub(super) swarm_box: wgpu::Buffer,
 }
 
+impl Buffers {
+    /// The buffer behind a binding on side `g` of the ping-pong (side g reads u[g], v[g] and
+    /// writes u[1-g], v[1-g]).
+    fn get(&self, which: FieldBinding, g: usize) -> &wgpu::Buffer {
+        match which {
+            FieldBinding::UIn => &self.u[g],
+            FieldBinding::VIn => &self.v[g],
+            FieldBinding::UOut => &self.u[1 - g],
+            FieldBinding::VOut => &self.v[1 - g],
+            FieldBinding::UHat => &self.u_hat,
+            FieldBinding::VHat => &self.v_hat,
+            FieldBinding::Pressure => &self.p,
+            FieldBinding::Modes => &self.modes,
+            FieldBinding::Body => &self.body,
+            FieldBinding::Inlet => &self.inlet,
+            FieldBinding::Poisson => &self.poisson,
+            FieldBinding::DivStar => &self.divstar,
+            FieldBinding::ColStats => &self.colstats,
+            FieldBinding::Health => &self.health,
+            FieldBinding::WU => &self.w_u,
+            FieldBinding::WV => &self.w_v,
+            FieldBinding::Members => &self.members,
+            FieldBinding::MemberDiag => &self.member_diag,
+            FieldBinding::Thrust => &self.thrust,
+            FieldBinding::SwarmBox => &self.swarm_box,
+        }
+    }
+}
+
 impl GpuBatch {
     pub(super) fn create_buffers(
         ctx: &GpuContext,
@@ -108,60 +137,21 @@ impl GpuBatch {
             }),
         }
     }
+
     /// Every pipeline's bind groups, both sides (built once per batch).
     pub(super) fn bind_groups(
         device: &wgpu::Device,
         pipelines: &Pipelines,
         b: &Buffers,
     ) -> BindGroups {
-        pipelines.bind_groups(device, &b.params, &b.substep, |which, g| match which {
-            FieldBinding::UIn => &b.u[g],
-            FieldBinding::VIn => &b.v[g],
-            FieldBinding::UOut => &b.u[1 - g],
-            FieldBinding::VOut => &b.v[1 - g],
-            FieldBinding::UHat => &b.u_hat,
-            FieldBinding::VHat => &b.v_hat,
-            FieldBinding::Pressure => &b.p,
-            FieldBinding::Modes => &b.modes,
-            FieldBinding::Body => &b.body,
-            FieldBinding::Inlet => &b.inlet,
-            FieldBinding::Poisson => &b.poisson,
-            FieldBinding::DivStar => &b.divstar,
-            FieldBinding::ColStats => &b.colstats,
-            FieldBinding::Health => &b.health,
-            FieldBinding::WU => &b.w_u,
-            FieldBinding::WV => &b.w_v,
-            FieldBinding::Members => &b.members,
-            FieldBinding::MemberDiag => &b.member_diag,
-            FieldBinding::Thrust => &b.thrust,
-            FieldBinding::SwarmBox => &b.swarm_box,
-        })
+        pipelines.bind_groups(device, &b.params, &b.substep, |which, g| b.get(which, g))
     }
+
+    /// The buffer behind a binding now (`UIn`/`VIn` are the current field).
     pub(super) fn buffer(&self, which: FieldBinding) -> &wgpu::Buffer {
-        let b = &self.buffers;
-        match which {
-            FieldBinding::UIn => &b.u[self.cur],
-            FieldBinding::VIn => &b.v[self.cur],
-            FieldBinding::UOut => &b.u[1 - self.cur],
-            FieldBinding::VOut => &b.v[1 - self.cur],
-            FieldBinding::UHat => &b.u_hat,
-            FieldBinding::VHat => &b.v_hat,
-            FieldBinding::Pressure => &b.p,
-            FieldBinding::Modes => &b.modes,
-            FieldBinding::Body => &b.body,
-            FieldBinding::Inlet => &b.inlet,
-            FieldBinding::Poisson => &b.poisson,
-            FieldBinding::DivStar => &b.divstar,
-            FieldBinding::ColStats => &b.colstats,
-            FieldBinding::Health => &b.health,
-            FieldBinding::WU => &b.w_u,
-            FieldBinding::WV => &b.w_v,
-            FieldBinding::Members => &b.members,
-            FieldBinding::MemberDiag => &b.member_diag,
-            FieldBinding::Thrust => &b.thrust,
-            FieldBinding::SwarmBox => &b.swarm_box,
-        }
+        self.buffers.get(which, self.cur)
     }
+
     /// Elements (of 4 bytes) one environment holds in a buffer.
     pub(super) fn words_per_env(&self, which: FieldBinding) -> usize {
         let g = &self.core.grid;

@@ -4,53 +4,68 @@
 //! extrema), then the inlet profile u(0, y) = 4 U y (H - y) / H^2, v = 0 on the walls, and
 //! the Brinkman blend with the body velocity, (1 - chi) w + chi w_body, on each face.
 //! Mirrors `shaders/advect.wgsl`. Shapes: u, u_out [ny][nx+1]; v, v_out [ny+1][nx];
-//! body [ny][nx] (chi, u_body, v_body, 0). Works a row of faces at a time: face velocities
-//! and departure points (vectorised), corners and weights, gathers, blend.
+//! body [ny][nx] (chi, u_body, v_body, 0); w and the predictor padded with their ghosts
+//! ([`super::sample`]). Works a row of faces at a time: departure points from the face
+//! velocities, then the row's samples ([`sample_row`]), then the update. The Brinkman blend
+//! visits only the cells of `solid` (every other cell has chi = 0, where it is the identity).
+
+use std::ops::Range;
 
 use super::diffuse::diffuse;
-use super::stencil::{Dim, RowScratch};
+use super::sample::{Departures, Face, Padded, sample_row};
+use super::stencil::Dim;
 use crate::config::Advection;
+
+/// A rectangle of cells, [j][i], outside which every cell is fluid (chi = 0).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct CellRect {
+    pub i: Range<usize>,
+    pub j: Range<usize>,
+}
+
+/// The smallest rectangle holding every cell of `body` with chi != 0 (None: all fluid).
+pub(crate) fn solid_extent(d: &Dim, body: &[[f32; 4]]) -> Option<CellRect> {
+    let (mut i, mut j) = (usize::MAX..0, usize::MAX..0);
+    for (k, cell) in body.iter().enumerate() {
+        if cell[0] != 0.0 {
+            let (ci, cj) = (k % d.nx, k / d.nx);
+            (i.start, i.end) = (i.start.min(ci), i.end.max(ci + 1));
+            (j.start, j.end) = (j.start.min(cj), j.end.max(cj + 1));
+        }
+    }
+    (!i.is_empty()).then_some(CellRect { i, j })
+}
 
 /// Reusable buffers of [`advect`], sized for one environment.
 #[derive(Debug, Default, Clone)]
 pub(crate) struct AdvectScratch {
     /// The diffused input velocity w.
-    w_u: Vec<f32>,
-    w_v: Vec<f32>,
-    /// MacCormack predictor and its stencil's (min, max), per face.
-    hat_u: Vec<f32>,
-    hat_v: Vec<f32>,
-    ext_u: Vec<[f32; 2]>,
-    ext_v: Vec<[f32; 2]>,
-    /// The input velocity at each face (the predictor's, reused by the correction).
-    vel_u: Vec<[f32; 2]>,
-    vel_v: Vec<[f32; 2]>,
-    row: RowScratch,
-}
-
-impl AdvectScratch {
-    fn resize(&mut self, d: &Dim) {
-        let (nu, nv) = (d.n_u(), d.n_v());
-        self.w_u.resize(nu, 0.0);
-        self.hat_u.resize(nu, 0.0);
-        self.w_v.resize(nv, 0.0);
-        self.hat_v.resize(nv, 0.0);
-        self.ext_u.resize(nu, [0.0; 2]);
-        self.ext_v.resize(nv, [0.0; 2]);
-        self.vel_u.resize(nu, [0.0; 2]);
-        self.vel_v.resize(nv, [0.0; 2]);
-    }
+    w_u: Padded,
+    w_v: Padded,
+    /// MacCormack predictor and its stencil's min and max, per face.
+    hat_u: Padded,
+    hat_v: Padded,
+    lo_u: Vec<f32>,
+    hi_u: Vec<f32>,
+    lo_v: Vec<f32>,
+    hi_v: Vec<f32>,
+    row: Departures,
 }
 
 /// The MacCormack value clamped to the predictor's stencil extrema; a non-finite value passes
-/// unclamped, as in `advect.wgsl`, so a blow-up reaches the health check (`f32::clamp` would
-/// panic on it; for finite values the two are the same).
+/// unclamped, as in `advect.wgsl`, so a blow-up reaches the health check (for finite values
+/// this is `f32::clamp`, which would panic on it).
 #[inline(always)]
-fn limited(raw: f32, [lo, hi]: [f32; 2]) -> f32 {
+fn limited(raw: f32, lo: f32, hi: f32) -> f32 {
     if !raw.is_finite() {
-        return raw;
+        raw
+    } else if raw < lo {
+        lo
+    } else if raw > hi {
+        hi
+    } else {
+        raw
     }
-    raw.clamp(lo, hi)
 }
 
 /// Brinkman blend of a face between cells a and b (solid fractions chi, body velocities w).
@@ -63,158 +78,187 @@ pub(crate) fn brinkman(w: f32, chi_a: f32, w_a: f32, chi_b: f32, w_b: f32) -> f3
     (1.0 - chi) * w + 0.5 * (chi_a * w_a + chi_b * w_b)
 }
 
-/// The momentum predictor u* of one environment into `u_out` / `v_out`, a row of faces at a
-/// time: face velocities and departure points, then the row's samples, then the update.
+/// The momentum predictor u* of one environment into `u_out` / `v_out`; `solid` bounds the
+/// cells of `body` with chi != 0 ([`solid_extent`]).
+/// `AVX2`: sample with [`super::sample_avx2`] (the caller has checked [`super::simd::avx2`]).
+#[inline(always)]
 #[allow(clippy::too_many_arguments)] // the stage's inputs and outputs, named as in SPEC 1
-pub(crate) fn advect(
+pub(crate) fn advect<const AVX2: bool>(
     d: &Dim,
     scheme: Advection,
     u: &[f32],
     v: &[f32],
     body: &[[f32; 4]],
+    solid: Option<&CellRect>,
     centre: f32,
     s: &mut AdvectScratch,
     u_out: &mut [f32],
     v_out: &mut [f32],
 ) {
-    s.resize(d);
     let (nx, ny, p) = (d.nx, d.ny, d.p);
     let row = nx + 1;
     diffuse(d, u, v, &mut s.w_u, &mut s.w_v);
     s.row.resize(nx);
     let mac = scheme == Advection::Maccormack;
-    // Face velocities (the predictor's, reused by the correction).
-    for j in 0..ny {
-        let base = j * row;
-        for i in 1..nx {
-            let k = j * nx + i - 1;
-            let sum = v[k] + v[k + 1] + v[k + nx] + v[k + nx + 1];
-            s.vel_u[base + i] = [u[base + i], 0.25 * sum];
-        }
-        s.vel_u[base + nx] = d.velocity_at_u_face(u, v, nx, j);
-    }
-    for j in 1..ny {
-        for i in 0..nx {
-            let k = (j - 1) * row + i;
-            let sum = u[k] + u[k + 1] + u[k + row] + u[k + row + 1];
-            s.vel_v[j * nx + i] = [0.25 * sum, v[j * nx + i]];
-        }
-    }
-    let h_forward = p.dt;
     if mac {
-        for j in 0..ny {
-            let faces = j * row + 1..j * row + row;
-            s.hat_u[j * row] = u[j * row];
-            departures_u(d, u, v, j, &s.vel_u[faces.clone()], h_forward, &mut s.row);
-            d.sample_u_row(&s.w_u, &mut s.row, nx, Some(&mut s.ext_u[faces.clone()]));
-            s.hat_u[faces].copy_from_slice(&s.row.out[..nx]);
-        }
-        s.hat_v[..nx].fill(0.0);
-        s.hat_v[ny * nx..].fill(0.0);
-        for j in 1..ny {
-            let faces = j * nx..(j + 1) * nx;
-            departures_v(d, u, v, j, &s.vel_v[faces.clone()], h_forward, &mut s.row);
-            d.sample_v_row(&s.w_v, &mut s.row, nx, Some(&mut s.ext_v[faces.clone()]));
-            s.hat_v[faces].copy_from_slice(&s.row.out[..nx]);
-        }
+        predict::<AVX2>(d, u, v, s);
     }
+    let r = &mut s.row;
     for j in 0..ny {
         let y = (j as f32 + 0.5) * p.dy;
         u_out[j * row] = 4.0 * centre * y * (p.height - y) / (p.height * p.height);
-        let faces = j * row + 1..j * row + row;
+        let out = &mut u_out[j * row + 1..(j + 1) * row];
         if mac {
-            departures_u(d, u, v, j, &s.vel_u[faces.clone()], -p.dt, &mut s.row);
-            d.sample_u_row(&s.hat_u, &mut s.row, nx, None);
+            departures_u(d, u, v, j, -p.dt, r);
+            sample_row::<AVX2>(d, &s.hat_u, Face::U, j, 1, nx, r, false);
+            let at = s.hat_u.at_u(1, j as isize);
+            let (hat, w) = (&s.hat_u.data[at..at + nx], &s.w_u.data[at..at + nx]);
+            let ext = j * row + 1..(j + 1) * row;
+            let (lo, hi) = (&s.lo_u[ext.clone()], &s.hi_u[ext]);
+            for n in 0..nx {
+                out[n] = limited(hat[n] + 0.5 * (w[n] - r.out[n]), lo[n], hi[n]);
+            }
         } else {
-            departures_u(d, u, v, j, &s.vel_u[faces.clone()], h_forward, &mut s.row);
-            d.sample_u_row(&s.w_u, &mut s.row, nx, None);
-        }
-        for i in 1..=nx {
-            let k = j * row + i;
-            let sampled = s.row.out[i - 1];
-            let w = if mac {
-                limited(s.hat_u[k] + 0.5 * (s.w_u[k] - sampled), s.ext_u[k])
-            } else {
-                sampled
-            };
-            let a = body[j * nx + i.max(1) - 1];
-            let b = body[j * nx + i.min(nx - 1)];
-            u_out[k] = brinkman(w, a[0], a[1], b[0], b[1]);
+            departures_u(d, u, v, j, p.dt, r);
+            sample_row::<AVX2>(d, &s.w_u, Face::U, j, 1, nx, r, false);
+            out.copy_from_slice(&r.out[..nx]);
         }
     }
     v_out[..nx].fill(0.0);
     v_out[ny * nx..].fill(0.0);
     for j in 1..ny {
-        let faces = j * nx..(j + 1) * nx;
+        let out = &mut v_out[j * nx..(j + 1) * nx];
         if mac {
-            departures_v(d, u, v, j, &s.vel_v[faces.clone()], -p.dt, &mut s.row);
-            d.sample_v_row(&s.hat_v, &mut s.row, nx, None);
+            departures_v(d, u, v, j, -p.dt, r);
+            sample_row::<AVX2>(d, &s.hat_v, Face::V, j, 0, nx, r, false);
+            let at = s.hat_v.at_v(0, j);
+            let (hat, w) = (&s.hat_v.data[at..at + nx], &s.w_v.data[at..at + nx]);
+            let ext = j * nx..(j + 1) * nx;
+            let (lo, hi) = (&s.lo_v[ext.clone()], &s.hi_v[ext]);
+            for n in 0..nx {
+                out[n] = limited(hat[n] + 0.5 * (w[n] - r.out[n]), lo[n], hi[n]);
+            }
         } else {
-            departures_v(d, u, v, j, &s.vel_v[faces.clone()], h_forward, &mut s.row);
-            d.sample_v_row(&s.w_v, &mut s.row, nx, None);
+            departures_v(d, u, v, j, p.dt, r);
+            sample_row::<AVX2>(d, &s.w_v, Face::V, j, 0, nx, r, false);
+            out.copy_from_slice(&r.out[..nx]);
         }
-        for i in 0..nx {
-            let k = j * nx + i;
-            let sampled = s.row.out[i];
-            let w = if mac {
-                limited(s.hat_v[k] + 0.5 * (s.w_v[k] - sampled), s.ext_v[k])
-            } else {
-                sampled
-            };
+    }
+    if let Some(rect) = solid {
+        blend_bodies(d, body, rect, u_out, v_out);
+    }
+}
+
+/// The MacCormack predictor w^ = A_forward(w) of every face into `s.hat_u` / `s.hat_v` (the
+/// inlet faces keep u, the wall faces 0), with its stencil's extrema, and their ghosts.
+#[inline(always)]
+fn predict<const AVX2: bool>(d: &Dim, u: &[f32], v: &[f32], s: &mut AdvectScratch) {
+    let (nx, ny, dt) = (d.nx, d.ny, d.p.dt);
+    let row = nx + 1;
+    s.hat_u.resize(d, Face::U);
+    s.hat_v.resize(d, Face::V);
+    for e in [&mut s.lo_u, &mut s.hi_u] {
+        e.resize(d.n_u(), 0.0);
+    }
+    for e in [&mut s.lo_v, &mut s.hi_v] {
+        e.resize(d.n_v(), 0.0);
+    }
+    let r = &mut s.row;
+    for j in 0..ny {
+        departures_u(d, u, v, j, dt, r);
+        sample_row::<AVX2>(d, &s.w_u, Face::U, j, 1, nx, r, true);
+        let at = s.hat_u.at_u(0, j as isize);
+        s.hat_u.data[at] = u[j * row];
+        s.hat_u.data[at + 1..at + 1 + nx].copy_from_slice(&r.out[..nx]);
+        let ext = j * row + 1..(j + 1) * row;
+        s.lo_u[ext.clone()].copy_from_slice(&r.lo[..nx]);
+        s.hi_u[ext].copy_from_slice(&r.hi[..nx]);
+    }
+    s.hat_u.fill_ghosts_u(d);
+    for j in [0, ny] {
+        let at = s.hat_v.at_v(0, j);
+        s.hat_v.data[at..at + nx].fill(0.0);
+    }
+    for j in 1..ny {
+        departures_v(d, u, v, j, dt, r);
+        sample_row::<AVX2>(d, &s.w_v, Face::V, j, 0, nx, r, true);
+        let at = s.hat_v.at_v(0, j);
+        s.hat_v.data[at..at + nx].copy_from_slice(&r.out[..nx]);
+        let ext = j * nx..(j + 1) * nx;
+        s.lo_v[ext.clone()].copy_from_slice(&r.lo[..nx]);
+        s.hi_v[ext].copy_from_slice(&r.hi[..nx]);
+    }
+    s.hat_v.fill_ghosts_v(d);
+}
+
+/// The Brinkman blend of every face next to a cell of `rect`, in place.
+fn blend_bodies(
+    d: &Dim,
+    body: &[[f32; 4]],
+    rect: &CellRect,
+    u_out: &mut [f32],
+    v_out: &mut [f32],
+) {
+    let (nx, ny) = (d.nx, d.ny);
+    let row = nx + 1;
+    for j in rect.j.clone() {
+        for i in rect.i.start.max(1)..=rect.i.end.min(nx) {
+            let a = body[j * nx + i - 1];
+            let b = body[j * nx + i.min(nx - 1)];
+            let k = j * row + i;
+            u_out[k] = brinkman(u_out[k], a[0], a[1], b[0], b[1]);
+        }
+    }
+    for j in rect.j.start.max(1)..=rect.j.end.min(ny - 1) {
+        for i in rect.i.clone() {
             let a = body[(j - 1) * nx + i];
             let b = body[j * nx + i];
-            v_out[k] = brinkman(w, a[0], a[2], b[0], b[2]);
+            let k = j * nx + i;
+            v_out[k] = brinkman(v_out[k], a[0], a[2], b[0], b[2]);
         }
     }
 }
 
 /// Departure points (into r.x, r.y) of u faces 1..=nx of row j after a step h, from their
-/// velocities `vel`, as `trace` per face (the Euler loop vectorises).
+/// velocities (u, and the mean of the four v faces around), as `trace` per face (the Euler
+/// loop vectorises).
 #[inline(always)]
-fn departures_u(
-    d: &Dim,
-    u: &[f32],
-    v: &[f32],
-    j: usize,
-    vel: &[[f32; 2]],
-    h: f32,
-    r: &mut RowScratch,
-) {
-    let y = (j as f32 + 0.5) * d.p.dy;
-    if d.p.rk2 == 0 {
-        for (n, vel) in vel.iter().enumerate() {
-            r.x[n] = (n + 1) as f32 * d.p.dx - h * vel[0];
-            r.y[n] = y - h * vel[1];
-        }
-    } else {
-        for (n, vel) in vel.iter().enumerate() {
-            let dep = d.trace(u, v, d.u_pos(n + 1, j), *vel, h);
-            (r.x[n], r.y[n]) = (dep[0], dep[1]);
+fn departures_u(d: &Dim, u: &[f32], v: &[f32], j: usize, h: f32, r: &mut Departures) {
+    let (nx, p) = (d.nx, &d.p);
+    let y = (j as f32 + 0.5) * p.dy;
+    let base = j * (nx + 1);
+    let euler = p.rk2 == 0;
+    for i in 1..nx {
+        let k = j * nx + i - 1;
+        let sum = v[k] + v[k + 1] + v[k + nx] + v[k + nx + 1];
+        let vel = [u[base + i], 0.25 * sum];
+        if euler {
+            r.x[i - 1] = i as f32 * p.dx - h * vel[0];
+            r.y[i - 1] = y - h * vel[1];
+        } else {
+            [r.x[i - 1], r.y[i - 1]] = d.trace(u, v, d.u_pos(i, j), vel, h);
         }
     }
+    let vel = d.velocity_at_u_face(u, v, nx, j);
+    [r.x[nx - 1], r.y[nx - 1]] = d.trace(u, v, d.u_pos(nx, j), vel, h);
 }
 
 /// Departure points of v faces 0..nx of row j (as [`departures_u`]).
 #[inline(always)]
-fn departures_v(
-    d: &Dim,
-    u: &[f32],
-    v: &[f32],
-    j: usize,
-    vel: &[[f32; 2]],
-    h: f32,
-    r: &mut RowScratch,
-) {
-    let y = j as f32 * d.p.dy;
-    if d.p.rk2 == 0 {
-        for (n, vel) in vel.iter().enumerate() {
-            r.x[n] = (n as f32 + 0.5) * d.p.dx - h * vel[0];
-            r.y[n] = y - h * vel[1];
-        }
-    } else {
-        for (n, vel) in vel.iter().enumerate() {
-            let dep = d.trace(u, v, d.v_pos(n, j), *vel, h);
-            (r.x[n], r.y[n]) = (dep[0], dep[1]);
+fn departures_v(d: &Dim, u: &[f32], v: &[f32], j: usize, h: f32, r: &mut Departures) {
+    let (nx, p) = (d.nx, &d.p);
+    let row = nx + 1;
+    let y = j as f32 * p.dy;
+    let euler = p.rk2 == 0;
+    for i in 0..nx {
+        let k = (j - 1) * row + i;
+        let sum = u[k] + u[k + 1] + u[k + row] + u[k + row + 1];
+        let vel = [0.25 * sum, v[j * nx + i]];
+        if euler {
+            r.x[i] = (i as f32 + 0.5) * p.dx - h * vel[0];
+            r.y[i] = y - h * vel[1];
+        } else {
+            [r.x[i], r.y[i]] = d.trace(u, v, d.v_pos(i, j), vel, h);
         }
     }
 }

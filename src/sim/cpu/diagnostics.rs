@@ -7,6 +7,7 @@
 use super::stencil::Dim;
 use crate::sim::EnvHealth;
 
+#[inline(always)] // into the step's vector-path instances (`super::simd`)
 pub(crate) fn diagnostics(
     d: &Dim,
     u: &[f32],

@@ -1,13 +1,19 @@
 //! Explicit viscous diffusion of the input velocity, w = u + dt nu lap u, on every face
 //! (inlet u faces and the wall v faces keep u and 0), the first half of the momentum predictor.
-//! Mirrors `diffuse` in `shaders/advect.wgsl`. Shapes: u, w_u [ny][nx+1]; v, w_v [ny+1][nx].
+//! Mirrors `diffuse` in `shaders/advect.wgsl`. Shapes: u [ny][nx+1], v [ny+1][nx]; w_u, w_v
+//! padded with their ghosts as in [`super::sample`], ready to be sampled.
 //! Cost: 5 loads, 1 store and 10 flops per face; interior runs of a row go through a
 //! branch-free loop (which the compiler vectorises), faces next to a boundary map their ghosts.
 
+use super::sample::Padded;
 use super::stencil::Dim;
 
-/// w = u + dt nu lap u into `w_u`, `w_v`.
-pub(crate) fn diffuse(d: &Dim, u: &[f32], v: &[f32], w_u: &mut [f32], w_v: &mut [f32]) {
+/// w = u + dt nu lap u into `w_u`, `w_v` (sized and their ghosts filled here).
+#[inline(always)] // into the step's vector-path instances (`super::simd`)
+pub(crate) fn diffuse(d: &Dim, u: &[f32], v: &[f32], w_u: &mut Padded, w_v: &mut Padded) {
+    use super::sample::Face;
+    w_u.resize(d, Face::U);
+    w_v.resize(d, Face::V);
     let (nx, ny, p) = (d.nx, d.ny, &d.p);
     let (ax, ay) = (p.dx * p.dx, p.dy * p.dy);
     let coef = p.dt * p.nu;
@@ -20,22 +26,26 @@ pub(crate) fn diffuse(d: &Dim, u: &[f32], v: &[f32], w_u: &mut [f32], w_v: &mut 
         u[j * row + i] + coef * (lx / ax + ly / ay)
     };
     for j in 0..ny {
-        w_u[j * row] = u[j * row];
+        let o = w_u.at_u(0, j as isize);
+        let out = &mut w_u.data[o..o + row];
+        out[0] = u[j * row];
         if j >= 1 && j + 1 < ny {
-            let (lo, hi) = (j * row + 1, j * row + nx);
-            for k in lo..hi {
+            let k0 = j * row;
+            for i in 1..nx {
+                let k = k0 + i;
                 let c = u[k];
                 let lx = u[k + 1] + u[k - 1] - 2.0 * c;
                 let ly = u[k + row] + u[k - row] - 2.0 * c;
-                w_u[k] = c + coef * (lx / ax + ly / ay);
+                out[i] = c + coef * (lx / ax + ly / ay);
             }
-            w_u[j * row + nx] = edge_u(nx, j);
+            out[nx] = edge_u(nx, j);
         } else {
-            for i in 1..=nx {
-                w_u[j * row + i] = edge_u(i, j);
+            for (i, w) in out.iter_mut().enumerate().skip(1) {
+                *w = edge_u(i, j);
             }
         }
     }
+    w_u.fill_ghosts_u(d);
     let edge_v = |i: usize, j: usize| {
         let (a, b) = (i as i32, j as i32);
         let c = v[j * nx + i];
@@ -43,16 +53,23 @@ pub(crate) fn diffuse(d: &Dim, u: &[f32], v: &[f32], w_u: &mut [f32], w_v: &mut 
         let ly = d.fetch_v(v, a, b + 1) + d.fetch_v(v, a, b - 1) - 2.0 * c;
         c + coef * (lx / ax + ly / ay)
     };
-    w_v[..nx].fill(0.0);
-    w_v[ny * nx..(ny + 1) * nx].fill(0.0);
+    for j in [0, ny] {
+        let o = w_v.at_v(0, j);
+        w_v.data[o..o + nx].fill(0.0);
+    }
     for j in 1..ny {
-        w_v[j * nx] = edge_v(0, j);
-        for k in j * nx + 1..j * nx + nx - 1 {
+        let o = w_v.at_v(0, j);
+        let out = &mut w_v.data[o..o + nx];
+        out[0] = edge_v(0, j);
+        let k0 = j * nx;
+        for i in 1..nx - 1 {
+            let k = k0 + i;
             let c = v[k];
             let lx = v[k + 1] + v[k - 1] - 2.0 * c;
             let ly = v[k + nx] + v[k - nx] - 2.0 * c;
-            w_v[k] = c + coef * (lx / ax + ly / ay);
+            out[i] = c + coef * (lx / ax + ly / ay);
         }
-        w_v[j * nx + nx - 1] = edge_v(nx - 1, j);
+        out[nx - 1] = edge_v(nx - 1, j);
     }
+    w_v.fill_ghosts_v(d);
 }

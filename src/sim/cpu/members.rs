@@ -9,45 +9,70 @@
 //!   (x_min, x_max, y_min, y_max of the centres).
 
 use std::f32::consts::PI;
+use std::ops::Range;
 
+use super::advect::CellRect;
 use super::stencil::{Dim, bilerp, floor_i32, mix};
 use crate::gpu::params::{GpuMember, GpuMemberDiag, GpuParams};
 
-/// The body field [ny][nx] of one environment from its members and swarm box.
-pub(crate) fn paint_bodies(d: &Dim, members: &[GpuMember], bx: [f32; 4], body: &mut [[f32; 4]]) {
+/// The body field [ny][nx] of one environment from its members and swarm box; returns the
+/// rectangle of cells it may have painted (every cell outside it is fluid). `cleared`: a
+/// rectangle outside which `body` is already fluid (the last call's), so that only it is
+/// cleared; None clears the whole field.
+pub(crate) fn paint_bodies(
+    d: &Dim,
+    members: &[GpuMember],
+    bx: [f32; 4],
+    body: &mut [[f32; 4]],
+    cleared: Option<&CellRect>,
+) -> CellRect {
     let (nx, ny, p) = (d.nx, d.ny, &d.p);
     let reach = p.radius + p.dx;
-    body.fill([0.0; 4]);
+    match cleared {
+        Some(r) => {
+            for j in r.j.clone() {
+                body[j * nx + r.i.start..j * nx + r.i.end].fill([0.0; 4]);
+            }
+        }
+        None => body.fill([0.0; 4]),
+    }
     // Cell centres (i + 1/2) dx inside [lo, hi] lie in this index range (one cell of margin
     // either side for rounding); the exact test below decides.
     let range = |lo: f32, hi: f32, h: f32, n: usize| {
         let a = floor_i32(lo / h - 0.5) - 1;
         let b = floor_i32(hi / h - 0.5) + 2;
-        (a.clamp(0, n as i32) as usize, b.clamp(0, n as i32) as usize)
+        a.clamp(0, n as i32) as usize..b.clamp(0, n as i32) as usize
     };
-    let (i_lo, i_hi) = range(bx[0] - reach, bx[1] + reach, p.dx, nx);
-    let (j_lo, j_hi) = range(bx[2] - reach, bx[3] + reach, p.dy, ny);
-    for j in j_lo..j_hi {
-        for i in i_lo..i_hi {
-            let c = [(i as f32 + 0.5) * p.dx, (j as f32 + 0.5) * p.dy];
-            if !(c[0] >= bx[0] - reach
-                && c[0] <= bx[1] + reach
-                && c[1] >= bx[2] - reach
-                && c[1] <= bx[3] + reach)
-            {
-                continue;
-            }
-            let mut cell = [0.0f32; 4];
-            for mem in members {
-                let dist = (c[0] - mem.pos[0]).hypot(c[1] - mem.pos[1]);
+    let boxed = CellRect {
+        i: range(bx[0] - reach, bx[1] + reach, p.dx, nx),
+        j: range(bx[2] - reach, bx[3] + reach, p.dy, ny),
+    };
+    let in_box = |c: [f32; 2]| {
+        c[0] >= bx[0] - reach && c[0] <= bx[1] + reach && c[1] >= bx[2] - reach && c[1] <= bx[3] + reach
+    };
+    // Each member paints the cells within `reach` of its centre where it is the most solid
+    // so far: in member order, as a per-cell loop over all members (cells farther away have
+    // chi = 0 for it, and the first member with the largest chi wins either way).
+    let clip = |a: Range<usize>, b: &Range<usize>| a.start.max(b.start)..a.end.min(b.end);
+    for mem in members {
+        let (x, y) = (mem.pos[0], mem.pos[1]);
+        let cols = clip(range(x - reach, x + reach, p.dx, nx), &boxed.i);
+        for j in clip(range(y - reach, y + reach, p.dy, ny), &boxed.j) {
+            for i in cols.clone() {
+                let c = [(i as f32 + 0.5) * p.dx, (j as f32 + 0.5) * p.dy];
+                if !in_box(c) {
+                    continue;
+                }
+                let dist = (c[0] - x).hypot(c[1] - y);
                 let chi = (0.5 + (p.radius - dist) * p.inv_dx).clamp(0.0, 1.0);
+                let cell = &mut body[j * nx + i];
                 if chi > cell[0] {
-                    cell = [chi, mem.vel[0], mem.vel[1], 0.0];
+                    *cell = [chi, mem.vel[0], mem.vel[1], 0.0];
                 }
             }
-            body[j * nx + i] = cell;
         }
     }
+    boxed
 }
 
 /// F_prop = F_max a / max(1, |a|) (N).

@@ -22,6 +22,10 @@ pub mod diffuse;
 pub mod members;
 pub mod pressure;
 pub mod project;
+mod sample;
+#[cfg(target_arch = "x86_64")]
+mod sample_avx2;
+pub mod simd;
 pub mod stages;
 pub(crate) mod stencil;
 
@@ -169,8 +173,43 @@ impl BatchState {
 }
 
 /// One control step of one environment (the inlet centreline velocity at the end of each
-/// substep in `inlet`).
+/// substep in `inlet`), with AVX2 where the processor has it ([`simd`]).
 fn step_env(
+    d: &Dim,
+    scheme: Advection,
+    poisson: &[f32],
+    env: EnvMut,
+    inlet: &[f32],
+    s: &mut Scratch,
+) -> EnvHealth {
+    #[cfg(target_arch = "x86_64")]
+    if simd::avx2() {
+        // SAFETY: the processor has AVX2.
+        return unsafe { step_env_avx2(d, scheme, poisson, env, inlet, s) };
+    }
+    step_env_with::<false>(d, scheme, poisson, env, inlet, s)
+}
+
+/// [`step_env_with`] compiled for AVX2 (the stages are inlined into it).
+///
+/// # Safety
+/// The processor must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn step_env_avx2(
+    d: &Dim,
+    scheme: Advection,
+    poisson: &[f32],
+    env: EnvMut,
+    inlet: &[f32],
+    s: &mut Scratch,
+) -> EnvHealth {
+    step_env_with::<true>(d, scheme, poisson, env, inlet, s)
+}
+
+/// [`step_env`] on the chosen vector path.
+#[inline(always)]
+fn step_env_with<const AVX2: bool>(
     d: &Dim,
     scheme: Advection,
     poisson: &[f32],
@@ -182,17 +221,31 @@ fn step_env(
     s.v_out.resize(d.n_v(), 0.0);
     s.modes.resize(d.n_c(), 0.0);
     let swarm = !env.members.is_empty();
+    // Without a swarm the body field is fixed for the control step; with one, each substep
+    // repaints it, clearing only what the last substep painted.
+    let mut solid = if swarm {
+        None
+    } else {
+        advect::solid_extent(d, env.body)
+    };
     for &centre in inlet {
         if swarm {
-            members::paint_bodies(d, env.members, *env.bx, env.body);
+            solid = Some(members::paint_bodies(
+                d,
+                env.members,
+                *env.bx,
+                env.body,
+                solid.as_ref(),
+            ));
         }
         let (u_out, v_out) = (&mut s.u_out, &mut s.v_out);
-        advect::advect(
+        advect::advect::<AVX2>(
             d,
             scheme,
             env.u,
             env.v,
             env.body,
+            solid.as_ref(),
             centre,
             &mut s.advect,
             u_out,

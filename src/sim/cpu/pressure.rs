@@ -83,6 +83,7 @@ pub(crate) fn fast_y<'a>(d: &Dim, slot: &'a mut Option<FastY>) -> Option<&'a mut
 /// `column` is scratch, resized here to ny x `BLOCK` values; `fast` holds the FFT plans of
 /// tall grids.
 #[allow(clippy::too_many_arguments)] // inputs, outputs and scratch of the stage
+#[inline(always)] // into the step's vector-path instances (`super::simd`)
 pub(crate) fn rhs(
     d: &Dim,
     poisson: &[f32],
@@ -200,6 +201,7 @@ fn rhs_columns<const N: usize>(
 
 /// The Thomas sweeps of every mode, in place on `modes`, four modes at a time so that their
 /// independent recurrences overlap instead of waiting on each other's latency.
+#[inline(always)] // into the step's vector-path instances (`super::simd`)
 pub(crate) fn solve(d: &Dim, poisson: &[f32], modes: &mut [f32]) {
     let (nx, ny) = (d.nx, d.ny);
     let dx2 = d.p.dx * d.p.dx;
@@ -230,6 +232,7 @@ pub(crate) fn solve(d: &Dim, poisson: &[f32], modes: &mut [f32]) {
 }
 
 /// The pressure p [ny][nx] from its modes (`mode` is scratch, as in [`rhs`]).
+#[inline(always)] // into the step's vector-path instances (`super::simd`)
 pub(crate) fn back(
     d: &Dim,
     poisson: &[f32],

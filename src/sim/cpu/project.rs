@@ -6,6 +6,7 @@
 use super::stencil::Dim;
 
 /// Subtracts dt/rho grad p from u, v in place.
+#[inline(always)] // into the step's vector-path instances (`super::simd`)
 pub(crate) fn project(d: &Dim, pres: &[f32], u: &mut [f32], v: &mut [f32]) {
     let (nx, ny, p) = (d.nx, d.ny, &d.p);
     let scale = p.dt / p.rho;

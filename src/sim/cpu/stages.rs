@@ -29,12 +29,14 @@ pub fn advect(p: &GpuParams, scheme: Advection, inp: &AdvectInputs) -> (Vec<f32>
     let mut s = AdvectScratch::default();
     for e in 0..p.n_env as usize {
         let centre = inp.inlet[e * p.substeps as usize + inp.substep];
-        super::advect::advect(
+        let body = &inp.body[e * nc..(e + 1) * nc];
+        super::advect::advect::<false>(
             &d,
             scheme,
             &inp.u[e * nu..(e + 1) * nu],
             &inp.v[e * nv..(e + 1) * nv],
-            &inp.body[e * nc..(e + 1) * nc],
+            body,
+            super::advect::solid_extent(&d, body).as_ref(),
             centre,
             &mut s,
             &mut u_out[e * nu..(e + 1) * nu],
@@ -135,7 +137,7 @@ pub fn paint_bodies(p: &GpuParams, members: &[GpuMember], swarm_box: &[[f32; 4]]
     let (n, nc) = (p.n_members as usize, d.n_c());
     let mut body = vec![[0.0f32; 4]; p.n_env as usize * nc];
     for (e, cells) in body.chunks_mut(nc).enumerate() {
-        members::paint_bodies(&d, &members[e * n..(e + 1) * n], swarm_box[e], cells);
+        members::paint_bodies(&d, &members[e * n..(e + 1) * n], swarm_box[e], cells, None);
     }
     body
 }

@@ -17,29 +17,6 @@ pub(crate) struct Dim {
     pub p: GpuParams,
 }
 
-/// One row of faces being advected: departure points, stencil corners and weights, and the
-/// sampled values.
-#[derive(Debug, Default, Clone)]
-pub(crate) struct RowScratch {
-    pub x: Vec<f32>,
-    pub y: Vec<f32>,
-    pub corner: Vec<[i32; 2]>,
-    pub t: Vec<[f32; 2]>,
-    pub vals: Vec<[f32; 4]>,
-    pub out: Vec<f32>,
-}
-
-impl RowScratch {
-    pub fn resize(&mut self, n: usize) {
-        self.x.resize(n, 0.0);
-        self.y.resize(n, 0.0);
-        self.corner.resize(n, [0; 2]);
-        self.t.resize(n, [0.0; 2]);
-        self.vals.resize(n, [0.0; 4]);
-        self.out.resize(n, 0.0);
-    }
-}
-
 impl Dim {
     pub fn new(p: &GpuParams) -> Self {
         Self {
@@ -156,44 +133,6 @@ impl Dim {
         }
     }
 
-    /// Bilinear samples of the u-like field `a` at the points (r.x[n], r.y[n]), n < len, into
-    /// r.out (and their stencil extrema into `ext`), exactly as `stencil_u` + `bilerp` per
-    /// point, in three passes: corners and weights (vectorised), the gathers, the blend.
-    #[inline(always)]
-    pub fn sample_u_row(
-        &self,
-        a: &[f32],
-        r: &mut RowScratch,
-        len: usize,
-        ext: Option<&mut [[f32; 2]]>,
-    ) {
-        for n in 0..len {
-            (r.corner[n], r.t[n]) = self.corner_u(r.x[n], r.y[n]);
-        }
-        for n in 0..len {
-            r.vals[n] = self.gather_u(a, r.corner[n]);
-        }
-        blend(r, len, ext);
-    }
-
-    /// As [`Self::sample_u_row`] for a v-like field.
-    #[inline(always)]
-    pub fn sample_v_row(
-        &self,
-        a: &[f32],
-        r: &mut RowScratch,
-        len: usize,
-        ext: Option<&mut [[f32; 2]]>,
-    ) {
-        for n in 0..len {
-            (r.corner[n], r.t[n]) = self.corner_v(r.x[n], r.y[n]);
-        }
-        for n in 0..len {
-            r.vals[n] = self.gather_v(a, r.corner[n]);
-        }
-        blend(r, len, ext);
-    }
-
     /// Input velocity at u face (i, j): its u and the mean of the four v faces around it.
     #[inline(always)]
     pub fn velocity_at_u_face(&self, u: &[f32], v: &[f32], i: usize, j: usize) -> [f32; 2] {
@@ -233,18 +172,6 @@ impl Dim {
     }
 }
 
-#[inline(always)]
-fn blend(r: &mut RowScratch, len: usize, ext: Option<&mut [[f32; 2]]>) {
-    for n in 0..len {
-        r.out[n] = bilerp(r.vals[n], r.t[n]);
-    }
-    if let Some(ext) = ext {
-        for (e, vals) in ext[..len].iter_mut().zip(&r.vals) {
-            *e = extrema(*vals);
-        }
-    }
-}
-
 /// `x.floor() as i32` without a libm call (the baseline x86-64 target has no rounding
 /// instruction): the same value for every finite x in i32's range, and 0 for NaN.
 #[inline(always)]
@@ -269,11 +196,15 @@ pub(crate) fn bilerp(vals: [f32; 4], t: [f32; 2]) -> f32 {
     )
 }
 
-/// (min, max) of a stencil's four values.
+/// (min, max) of a stencil's four values, folded from (+inf, -inf) with `v < m` / `v > m`
+/// (NaN values are skipped, as by `f32::min`; the vector path's `min_ps` / `max_ps` take the
+/// same choices, so both give the same bits).
 #[inline(always)]
 pub(crate) fn extrema(vals: [f32; 4]) -> [f32; 2] {
-    [
-        vals.iter().copied().fold(f32::INFINITY, f32::min),
-        vals.iter().copied().fold(f32::NEG_INFINITY, f32::max),
-    ]
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for v in vals {
+        lo = if v < lo { v } else { lo };
+        hi = if v > hi { v } else { hi };
+    }
+    [lo, hi]
 }

@@ -319,7 +319,7 @@ mod tests {
                         let jitter = noise(2 * len, seed * 977 + j as u32);
                         for m in 0..len {
                             let i = first + m;
-                            let (x0, y0) = match face {
+                            let [x0, y0] = match face {
                                 Face::U => d.u_pos(i, j),
                                 Face::V => d.v_pos(i, j),
                             };

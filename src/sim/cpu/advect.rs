@@ -192,13 +192,7 @@ fn predict<const AVX2: bool>(d: &Dim, u: &[f32], v: &[f32], s: &mut AdvectScratc
 }
 
 /// The Brinkman blend of every face next to a cell of `rect`, in place.
-fn blend_bodies(
-    d: &Dim,
-    body: &[[f32; 4]],
-    rect: &CellRect,
-    u_out: &mut [f32],
-    v_out: &mut [f32],
-) {
+fn blend_bodies(d: &Dim, body: &[[f32; 4]], rect: &CellRect, u_out: &mut [f32], v_out: &mut [f32]) {
     let (nx, ny) = (d.nx, d.ny);
     let row = nx + 1;
     for j in rect.j.clone() {
@@ -221,21 +215,26 @@ fn blend_bodies(
 
 /// Departure points (into r.x, r.y) of u faces 1..=nx of row j after a step h, from their
 /// velocities (u, and the mean of the four v faces around), as `trace` per face (the Euler
-/// loop vectorises).
+/// loop runs over whole rows, which the compiler vectorises).
 #[inline(always)]
 fn departures_u(d: &Dim, u: &[f32], v: &[f32], j: usize, h: f32, r: &mut Departures) {
     let (nx, p) = (d.nx, &d.p);
     let y = (j as f32 + 0.5) * p.dy;
     let base = j * (nx + 1);
-    let euler = p.rk2 == 0;
-    for i in 1..nx {
-        let k = j * nx + i - 1;
-        let sum = v[k] + v[k + 1] + v[k + nx] + v[k + nx + 1];
-        let vel = [u[base + i], 0.25 * sum];
-        if euler {
-            r.x[i - 1] = i as f32 * p.dx - h * vel[0];
-            r.y[i - 1] = y - h * vel[1];
-        } else {
+    if p.rk2 == 0 {
+        let (below, above) = (&v[j * nx..(j + 1) * nx], &v[(j + 1) * nx..(j + 2) * nx]);
+        let along = &u[base + 1..base + nx];
+        let (xs, ys) = (&mut r.x[..nx - 1], &mut r.y[..nx - 1]);
+        for n in 0..nx - 1 {
+            let sum = below[n] + below[n + 1] + above[n] + above[n + 1];
+            xs[n] = (n + 1) as f32 * p.dx - h * along[n];
+            ys[n] = y - h * (0.25 * sum);
+        }
+    } else {
+        for i in 1..nx {
+            let k = j * nx + i - 1;
+            let sum = v[k] + v[k + 1] + v[k + nx] + v[k + nx + 1];
+            let vel = [u[base + i], 0.25 * sum];
             [r.x[i - 1], r.y[i - 1]] = d.trace(u, v, d.u_pos(i, j), vel, h);
         }
     }
@@ -249,15 +248,19 @@ fn departures_v(d: &Dim, u: &[f32], v: &[f32], j: usize, h: f32, r: &mut Departu
     let (nx, p) = (d.nx, &d.p);
     let row = nx + 1;
     let y = j as f32 * p.dy;
-    let euler = p.rk2 == 0;
-    for i in 0..nx {
-        let k = (j - 1) * row + i;
-        let sum = u[k] + u[k + 1] + u[k + row] + u[k + row + 1];
-        let vel = [0.25 * sum, v[j * nx + i]];
-        if euler {
-            r.x[i] = (i as f32 + 0.5) * p.dx - h * vel[0];
-            r.y[i] = y - h * vel[1];
-        } else {
+    let (below, above) = (&u[(j - 1) * row..j * row], &u[j * row..(j + 1) * row]);
+    let along = &v[j * nx..(j + 1) * nx];
+    if p.rk2 == 0 {
+        let (xs, ys) = (&mut r.x[..nx], &mut r.y[..nx]);
+        for n in 0..nx {
+            let sum = below[n] + below[n + 1] + above[n] + above[n + 1];
+            xs[n] = (n as f32 + 0.5) * p.dx - h * (0.25 * sum);
+            ys[n] = y - h * along[n];
+        }
+    } else {
+        for i in 0..nx {
+            let sum = below[i] + below[i + 1] + above[i] + above[i + 1];
+            let vel = [0.25 * sum, along[i]];
             [r.x[i], r.y[i]] = d.trace(u, v, d.v_pos(i, j), vel, h);
         }
     }

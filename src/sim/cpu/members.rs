@@ -48,7 +48,10 @@ pub(crate) fn paint_bodies(
         j: range(bx[2] - reach, bx[3] + reach, p.dy, ny),
     };
     let in_box = |c: [f32; 2]| {
-        c[0] >= bx[0] - reach && c[0] <= bx[1] + reach && c[1] >= bx[2] - reach && c[1] <= bx[3] + reach
+        c[0] >= bx[0] - reach
+            && c[0] <= bx[1] + reach
+            && c[1] >= bx[2] - reach
+            && c[1] <= bx[3] + reach
     };
     // Each member paints the cells within `reach` of its centre where it is the most solid
     // so far: in member order, as a per-cell loop over all members (cells farther away have

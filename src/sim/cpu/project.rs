@@ -12,15 +12,21 @@ pub(crate) fn project(d: &Dim, pres: &[f32], u: &mut [f32], v: &mut [f32]) {
     let scale = p.dt / p.rho;
     let row = nx + 1;
     for j in 0..ny {
-        for i in 1..=nx {
-            let left = pres[j * nx + i - 1];
-            let right = if i == nx { -left } else { pres[j * nx + i] };
-            u[j * row + i] -= scale * (right - left) / p.dx;
+        let (cells, faces) = (
+            &pres[j * nx..(j + 1) * nx],
+            &mut u[j * row + 1..(j + 1) * row],
+        );
+        for i in 0..nx - 1 {
+            faces[i] -= scale * (cells[i + 1] - cells[i]) / p.dx;
         }
+        // The outlet face: the ghost p = -p_last.
+        let left = cells[nx - 1];
+        faces[nx - 1] -= scale * (-left - left) / p.dx;
     }
     for j in 1..ny {
-        for i in 0..nx {
-            v[j * nx + i] -= scale * (pres[j * nx + i] - pres[(j - 1) * nx + i]) / p.dy;
+        let (below, above) = (&pres[(j - 1) * nx..j * nx], &pres[j * nx..(j + 1) * nx]);
+        for (i, face) in v[j * nx..(j + 1) * nx].iter_mut().enumerate() {
+            *face -= scale * (above[i] - below[i]) / p.dy;
         }
     }
 }

@@ -124,7 +124,9 @@ pub(crate) fn sample_row<const AVX2: bool>(
     #[cfg(target_arch = "x86_64")]
     if AVX2 {
         // SAFETY: AVX2 is present (the caller's check).
-        return unsafe { super::sample_avx2::sample_row(d, a, face, j, first, len, r, want_extrema) };
+        return unsafe {
+            super::sample_avx2::sample_row(d, a, face, j, first, len, r, want_extrema)
+        };
     }
     // Chunks whose nine neighbours are all stored: u faces load columns i - 1 ..= i + 1 of
     // 0 ..= nx + 1; v faces columns i - 1 ..= i + 1 of -1 ..= nx.

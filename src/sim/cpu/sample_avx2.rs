@@ -23,10 +23,7 @@ fn floor_epi32(f: __m256) -> __m256i {
 #[inline]
 fn mix(a: __m256, b: __m256, t: __m256) -> __m256 {
     let one = _mm256_set1_ps(1.0);
-    _mm256_add_ps(
-        _mm256_mul_ps(a, _mm256_sub_ps(one, t)),
-        _mm256_mul_ps(b, t),
-    )
+    _mm256_add_ps(_mm256_mul_ps(a, _mm256_sub_ps(one, t)), _mm256_mul_ps(b, t))
 }
 
 /// Eight values from the start of `v`.
@@ -99,7 +96,10 @@ pub(super) fn sample_row(
         let ty = _mm256_sub_ps(fy, _mm256_cvtepi32_ps(iy));
         let ox = _mm256_sub_epi32(ix, _mm256_add_epi32(_mm256_set1_epi32(i as i32), lane));
         let oy = _mm256_sub_epi32(iy, row_j);
-        let (left, below) = (_mm256_cmpeq_epi32(ox, minus1), _mm256_cmpeq_epi32(oy, minus1));
+        let (left, below) = (
+            _mm256_cmpeq_epi32(ox, minus1),
+            _mm256_cmpeq_epi32(oy, minus1),
+        );
         let near = _mm256_and_si256(
             _mm256_or_si256(left, _mm256_cmpeq_epi32(ox, izero)),
             _mm256_or_si256(below, _mm256_cmpeq_epi32(oy, izero)),

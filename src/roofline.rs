@@ -109,7 +109,8 @@ mod x86 {
             let (m, a) = (1.0f32, 1e-7f32);
             let mut out = [0.0f32; 16];
             // SAFETY: reads m and a, writes 64 bytes of `out` at most; every vector register
-            // it touches is declared clobbered; the caller checked the instruction set.
+            // it touches (0 to 15, their upper halves by vzeroupper) is declared clobbered;
+            // the caller checked the instruction set.
             unsafe {
                 asm!(
                     concat!("vbroadcastss ", $r, "12, dword ptr [{m}]"),
@@ -153,6 +154,8 @@ mod x86 {
                     out("xmm4") _, out("xmm5") _, out("xmm6") _, out("xmm7") _,
                     out("xmm8") _, out("xmm9") _, out("xmm10") _, out("xmm11") _,
                     out("xmm12") _, out("xmm13") _,
+                    // vzeroupper clears the upper halves of these two as well
+                    out("xmm14") _, out("xmm15") _,
                     options(nostack),
                 );
             }

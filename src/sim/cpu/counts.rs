@@ -10,13 +10,15 @@
 //!   parameters only is counted once per stage (hoisted), one of the row index once per row;
 //!   plain common sub-expressions once (`2 c` in the Laplacian, `1 - t` in a bilinear blend).
 //! - loads, stores: f32 elements of the field-sized arrays (u, v, p, body at 4 f32 a cell,
-//!   the advection scratch, modes, the solver's factor tables), each array once per pass over
+//!   the advection's padded w and predictor (ghosts included) and its stencil minima and
+//!   maxima, modes, the solver's factor tables), each array once per pass over
 //!   the grid that reads it and once per pass that writes it, at its full size, like the
 //!   kernels' traffic model (neighbouring reads of a row hit the cache). The one-row scratch
 //!   of the advection, the y-transform block and the members themselves stay in L1 and are not
 //!   traffic, except the members' samples of u, v, p (counted one f32 per corner).
-//! - state-dependent paths come from [`BodyLoad`]: the faces whose Brinkman blend meets a body,
-//!   the cells painted, pinned members and touching pairs. The drag law is counted on its
+//! - state-dependent paths come from [`BodyLoad`]: the rectangle the Brinkman blend visits
+//!   and its faces that meet a body, the cells each member paints, pinned members and
+//!   touching pairs. The drag law is counted on its
 //!   middle branch (0.1 <= Re < 1000).
 //! - the FFT y-transforms of tall grids (ny >= [`super::pressure::FAST_Y_MIN`]) are estimated,
 //!   not counted: 2.5 ny log2 ny flops per column per transform.

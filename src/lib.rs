@@ -6,7 +6,8 @@
 //! the CLI (the binary) -> `learn` (MOMAPPO + PCGrad, any `learn::env::MultiAgentEnv`), `env`
 //! (the swarm environments), `report`, `output` -> `sim` (the batched flow: trait
 //! `FlowBatch`, `CpuBatch`, `GpuBatch`) -> `gpu` (adapter, kernels), with `config`,
-//! `waveform`, `checkpoint`, `rng` and `tuning` beside them; `testing` is test-only.
+//! `waveform`, `checkpoint`, `rng`, `tuning` and `roofline` (this machine's measured peaks)
+//! beside them; `testing` is test-only.
 
 pub mod checkpoint;
 pub mod config;
@@ -16,6 +17,7 @@ pub mod learn;
 pub mod output;
 pub mod report;
 pub mod rng;
+pub mod roofline;
 pub mod sim;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;

@@ -177,6 +177,104 @@ fn bench_native_writes_the_ratio_to_the_adapter() {
     assert!(lines[1].contains(",\"CPU backend, "), "{}", lines[1]);
 }
 
+/// On the CPU backend `bench` times the stages (bench.csv's split is no longer zero), writes
+/// the per-stage table (stages.csv) and the roofline against the peaks it measured
+/// (roofline.csv).
+#[test]
+fn bench_on_the_cpu_backend_splits_the_step_by_stage_and_writes_the_roofline() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bench");
+    let mut args = vec![
+        "bench",
+        "--envs",
+        "1,2",
+        "--seconds",
+        "0.05",
+        "--peak-seconds",
+        "0.02",
+        "--triad-mib",
+        "8",
+        "--set",
+        "solver.backend=native",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(SMALL_SWARM);
+    let o = bin(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    let t = text(&o);
+    for part in [
+        "machine peaks on",
+        "CPU stages at E = 2",
+        "roofline at E = 2",
+        "% of the",
+    ] {
+        assert!(t.contains(part), "missing {part}: {t}");
+    }
+    let lines = csv_lines(&out.join("bench.csv"));
+    let row: Vec<f64> = lines[2]
+        .split(',')
+        .take(9)
+        .map(|c| c.parse().unwrap())
+        .collect();
+    let (fluid, pressure, swarm) = (row[5], row[6], row[7]);
+    assert!(fluid > 0.0 && pressure > 0.0 && swarm > 0.0, "{}", lines[2]);
+
+    let stages = csv_lines(&out.join("stages.csv"));
+    assert_eq!(
+        stages[0],
+        "envs,stage,cpu_s_per_control_step,share,wall_s_per_control_step,flops_per_cell_substep,bytes_per_cell_substep,gflop_per_cpu_s,gb_per_cpu_s"
+    );
+    assert_eq!(
+        stages.len(),
+        1 + 2 * 9,
+        "8 stages and their sum per batch size"
+    );
+    let at_2: Vec<Vec<&str>> = stages[10..]
+        .iter()
+        .map(|l| l.split(',').collect())
+        .collect();
+    let names: Vec<&str> = at_2.iter().map(|c| c[1]).collect();
+    assert_eq!(
+        names,
+        [
+            "paint",
+            "advect",
+            "pressure_rhs",
+            "pressure_solve",
+            "pressure_back",
+            "project",
+            "move",
+            "diagnostics",
+            "all"
+        ]
+    );
+    let share: f64 = at_2[..8].iter().map(|c| c[3].parse::<f64>().unwrap()).sum();
+    assert!((share - 1.0).abs() < 1e-3, "{share}");
+    for c in &at_2 {
+        assert!(c[2].parse::<f64>().unwrap() > 0.0, "{c:?}");
+        assert!(c[5].parse::<f64>().unwrap() > 0.0, "{c:?}");
+    }
+
+    let roof = csv_lines(&out.join("roofline.csv"));
+    assert_eq!(roof.len(), 3);
+    let cols: Vec<&str> = roof[2].split(',').collect();
+    assert_eq!(cols[0], "2");
+    let num = |k: usize| cols[k].parse::<f64>().unwrap();
+    assert!(
+        num(2) > 100.0 && num(3) > 100.0,
+        "flops, bytes per cell: {}",
+        roof[2]
+    );
+    for k in [4, 5, 6, 8, 9, 10, 11, 12, 13, 14] {
+        assert!(
+            num(k).is_finite() && num(k) > 0.0,
+            "column {k}: {}",
+            roof[2]
+        );
+    }
+}
+
 #[test]
 fn info_reports_adapter_limits_and_self_check() {
     let o = bin(&["info"]);

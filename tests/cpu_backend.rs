@@ -388,3 +388,57 @@ fn tall_grids_run_on_the_cpu_and_the_kernels_alike() {
     let opened = open::open_auto_on(&ctx, &r, 1, false).unwrap();
     assert_eq!(opened.batch.backend_name(), "adapter", "{}", opened.why);
 }
+
+/// The stage timer of `bench` (`CpuBatch::profile_step`) steps exactly as `step` does, bit for
+/// bit and clock included, and charges time to every stage that runs (paint and move only with
+/// members).
+#[test]
+fn timed_cpu_steps_equal_untimed_ones_and_time_every_stage() {
+    use fluxswarm_gpu::sim::cpu::CpuStage;
+    let bits = |x: &[f32]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    for (scheme, trace, swarm) in [
+        ("maccormack", "euler", true),
+        ("semi_lagrangian", "rk2", true),
+        ("semi_lagrangian", "euler", false),
+    ] {
+        let extra = [
+            &format!("solver.advection={scheme}") as &str,
+            &format!("solver.backtrace={trace}"),
+            "time.substeps=4",
+            "time.control_dt_s=0.001",
+        ];
+        let r = if swarm {
+            swarm_config(77, 13, &POS_MM, &extra)
+        } else {
+            small_config(77, 13, &extra)
+        };
+        let (mut plain, mut timed) = (CpuBatch::new(&r, 2).unwrap(), CpuBatch::new(&r, 2).unwrap());
+        let n = plain.n_members();
+        let actions: Vec<[f32; 2]> = (0..2 * n).map(|k| [0.4 - 0.1 * k as f32, 0.3]).collect();
+        plain.set_all_actions(&actions).unwrap();
+        timed.set_all_actions(&actions).unwrap();
+        for _ in 0..3 {
+            let a = plain.step().unwrap();
+            let (b, times) = timed.profile_step().unwrap();
+            assert_eq!(a, b, "{scheme}");
+            for s in CpuStage::ALL {
+                let runs = swarm || !matches!(s, CpuStage::Paint | CpuStage::Move);
+                assert_eq!(times[s] > 0, runs, "{scheme} {trace}: {s:?} {times:?}");
+            }
+        }
+        let (x, y) = (plain.state_ref(), timed.state_ref());
+        for (name, a, b) in [
+            ("u", &x.u, &y.u),
+            ("v", &x.v, &y.v),
+            ("p", &x.p, &y.p),
+            ("divstar", &x.divstar, &y.divstar),
+        ] {
+            assert_eq!(bits(a), bits(b), "{scheme} {trace}: {name}");
+        }
+        let flat_body = |s: &[[f32; 4]]| bits(s.as_flattened());
+        assert_eq!(flat_body(&x.body), flat_body(&y.body));
+        assert_eq!(x.members, y.members);
+        assert_eq!(plain.member_forces(), timed.member_forces());
+        assert_eq!(plain.core().time_s, timed.core().time_s);
+    }
+}

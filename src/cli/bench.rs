@@ -4,7 +4,9 @@
 //! alone, the pressure passes alone, the member kernels alone, the diagnostics with the
 //! health read-back alone). Prints a table and writes `bench.csv` (SPEC section 7). Where the
 //! adapter has timestamps inside passes, also the GPU time and the bytes of every kernel over
-//! one control step (`kernels.csv`).
+//! one control step (`kernels.csv`). On the CPU backend the split comes from timing its stages
+//! instead, with the roofline of the CPU step against this machine's measured peaks
+//! (`stages.csv`, `roofline.csv`; [`super::bench_cpu`]).
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -17,6 +19,7 @@ use fluxswarm_gpu::sim::{
     CpuBatch, EnvHealth, FlowBatch, GpuBatch, Stage, fluid::PRESSURE_ITERATIONS_PER_SUBSTEP,
 };
 
+use super::bench_cpu::{self, CpuProfile};
 use super::common::ConfigArgs;
 
 #[derive(Debug, Args)]
@@ -37,6 +40,13 @@ pub struct BenchArgs {
     /// the ratio.
     #[arg(long)]
     pub native: bool,
+    /// Seconds for each of the machine-peak measurements of the CPU backend's roofline (FMA
+    /// loops, in-cache and out-of-cache triads); 0 skips them.
+    #[arg(long, default_value_t = 0.2)]
+    pub peak_seconds: f64,
+    /// Size of each of the three out-of-cache triad arrays (MiB, over all threads).
+    #[arg(long, default_value_t = 256)]
+    pub triad_mib: usize,
 }
 
 struct Row {
@@ -55,6 +65,8 @@ struct Row {
     /// (kernel, dispatches per control step, median GPU time per control step (s), bytes per
     /// control step), where the adapter has timestamps.
     kernels: Vec<(String, u32, f64, u64)>,
+    /// The CPU backend's stage times and counted work.
+    cpu: Option<CpuProfile>,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -127,11 +139,16 @@ fn bench_one(
         step_s,
         residual,
         kernels: Vec::new(),
+        cpu: None,
     };
     // The time split by elimination and the kernel timestamps are the WGSL path's; the CPU
-    // backend has no dispatches to split.
+    // backend has no dispatches to split, but stages it can time.
     if let Some(gpu) = batch.as_gpu_mut() {
         split_times(gpu, &mut row)?;
+    } else if batch.backend_name() == "native" {
+        let p = bench_cpu::profile(resolved, batch.as_ref(), step_s, args.seconds)?;
+        (row.fluid_s, row.pressure_s, row.swarm_s, row.readback_s) = p.split();
+        row.cpu = Some(p);
     }
     Ok((row, runs_on))
 }
@@ -209,6 +226,12 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         "bench: {} x {} grid, {} substeps per control step, {:?} advection, solver.backend = {}",
         c.domain.nx, c.domain.ny, c.time.substeps, c.solver.advection, c.solver.backend
     );
+    let native = c.solver.backend == fluxswarm_gpu::config::Backend::Native;
+    let mut peaks = if native {
+        bench_cpu::measure_peaks(args.peak_seconds, args.triad_mib)
+    } else {
+        None
+    };
     println!(
         "{:>5} {:>14} {:>12} {:>10} {:>9} {:>10} {:>11} {:>11} {:>11} {:>11} {:>11}",
         "envs",
@@ -266,6 +289,14 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     }
     if rows.iter().any(|r| r.dispatches > 0) {
         write_kernel_table(&out, &rows, &adapter)?;
+    }
+    let profiles: Vec<CpuProfile> = rows.iter_mut().filter_map(|r| r.cpu.take()).collect();
+    if !profiles.is_empty() {
+        if peaks.is_none() && !native {
+            // `auto` fell back to the CPU backend: measure the peaks now.
+            peaks = bench_cpu::measure_peaks(args.peak_seconds, args.triad_mib);
+        }
+        bench_cpu::write_tables(&out, &profiles, peaks.as_ref())?;
     }
     if args.native {
         write_native_table(&args, &resolved, &out, &rows, &adapter)?;

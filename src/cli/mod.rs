@@ -1,6 +1,7 @@
 //! Command-line interface: clap subcommands, each calling its module's `run`.
 
 mod bench;
+mod bench_cpu;
 mod common;
 mod eval;
 mod info;

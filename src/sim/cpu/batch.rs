@@ -1,7 +1,7 @@
 //! The CPU backend (`solver.backend = "native"`): a [`BatchState`] stepped in place by the CPU
 //! stages, one environment per rayon task, with the clock of [`BatchCore`]. Needs no adapter.
 
-use super::{BatchState, Scratch};
+use super::{BatchState, Scratch, StageTimes};
 use crate::config::Resolved;
 use crate::gpu::params::{GpuMember, GpuMemberDiag};
 use crate::sim::batch::{BatchCore, Fields, FlowBatch, swarm_box};
@@ -50,6 +50,19 @@ impl CpuBatch {
     /// The batch's state, borrowed (no copy).
     pub fn state_ref(&self) -> &BatchState {
         &self.state
+    }
+
+    /// One control step exactly as [`FlowBatch::step`] (the same state, bit for bit, and the
+    /// clock advanced), with each stage's time summed over the environments (CPU time: with
+    /// several threads the sum exceeds the step's wall time).
+    pub fn profile_step(&mut self) -> Result<(Vec<EnvHealth>, StageTimes), SimError> {
+        let inlet = self.core.inlet_values();
+        let mut times = vec![StageTimes::default(); self.core.n_env];
+        let health = self
+            .state
+            .step_timed(&inlet, &mut self.scratch, &mut self.diags, &mut times);
+        self.core.advance();
+        Ok((health, times.into_iter().sum()))
     }
 
     fn span(&self, e: usize, per_env: usize) -> std::ops::Range<usize> {

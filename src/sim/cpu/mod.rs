@@ -13,10 +13,13 @@
 //! State ([`BatchState`], environment outermost): u [E][ny][nx+1], v [E][ny+1][nx],
 //! p and body [E][ny][nx], divstar [E][nx], members and actions [E][N], boxes [E].
 //! Environments are independent: one rayon task steps one environment through a whole control
-//! step, so the result does not depend on the number of threads.
+//! step, so the result does not depend on the number of threads. [`timing`] times the stages
+//! when asked ([`BatchState::step_timed`], [`CpuBatch::profile_step`]) and [`counts`] counts
+//! their arithmetic and memory traffic, for `bench`'s roofline.
 
 pub mod advect;
 mod batch;
+pub mod counts;
 pub mod diagnostics;
 pub mod diffuse;
 pub mod members;
@@ -28,13 +31,16 @@ mod sample_avx2;
 pub mod simd;
 pub mod stages;
 pub(crate) mod stencil;
+pub mod timing;
 
 pub use batch::CpuBatch;
+pub use counts::{BodyLoad, StageWork, Work};
 pub use members::{cd_times_speed, propulsion};
 pub use stages::{
     AdvectInputs, advect, diagnostics, move_members, paint_bodies, pressure_rhs, pressure_solve,
     project,
 };
+pub use timing::{CpuStage, StageTimes};
 
 use rayon::prelude::*;
 
@@ -43,6 +49,7 @@ use crate::config::Advection;
 use crate::gpu::params::{GpuMember, GpuMemberDiag, GpuParams};
 use advect::AdvectScratch;
 use stencil::Dim;
+use timing::StageClock;
 
 /// The state of a whole batch on the host: what a control step reads and writes. The GPU
 /// batch reads its buffers into one ([`crate::sim::FlowBatch::state`]) and the CPU batch
@@ -116,6 +123,28 @@ impl BatchState {
         scratch: &mut [Scratch],
         diags: &mut [GpuMemberDiag],
     ) -> Vec<EnvHealth> {
+        self.step_inner(inlet, scratch, diags, None)
+    }
+
+    /// [`Self::step_with`] with each environment's stage times added to `times` [E]; the
+    /// same state, bit for bit.
+    pub fn step_timed(
+        &mut self,
+        inlet: &[f32],
+        scratch: &mut [Scratch],
+        diags: &mut [GpuMemberDiag],
+        times: &mut [StageTimes],
+    ) -> Vec<EnvHealth> {
+        self.step_inner(inlet, scratch, diags, Some(times))
+    }
+
+    fn step_inner(
+        &mut self,
+        inlet: &[f32],
+        scratch: &mut [Scratch],
+        diags: &mut [GpuMemberDiag],
+        times: Option<&mut [StageTimes]>,
+    ) -> Vec<EnvHealth> {
         let p = self.params;
         let d = Dim::new(&p);
         let (ne, n, subs) = (p.n_env as usize, p.n_members as usize, p.substeps as usize);
@@ -155,18 +184,18 @@ impl BatchState {
                 },
             )
             .collect();
+        let clocks: Vec<Option<&mut StageTimes>> = match times {
+            Some(t) => t.iter_mut().map(Some).collect(),
+            None => (0..ne).map(|_| None).collect(),
+        };
         envs.into_par_iter()
             .zip(scratch.par_iter_mut())
+            .zip(clocks)
             .enumerate()
-            .map(|(e, (env, s))| {
-                step_env(
-                    &d,
-                    scheme,
-                    poisson,
-                    env,
-                    &inlet[e * subs..(e + 1) * subs],
-                    s,
-                )
+            .map(|(e, ((env, s), times))| {
+                let clock = StageClock::start(times);
+                let inlet = &inlet[e * subs..(e + 1) * subs];
+                step_env(&d, scheme, poisson, env, inlet, s, clock)
             })
             .collect()
     }
@@ -181,13 +210,14 @@ fn step_env(
     env: EnvMut,
     inlet: &[f32],
     s: &mut Scratch,
+    clock: StageClock,
 ) -> EnvHealth {
     #[cfg(target_arch = "x86_64")]
     if simd::avx2() {
         // SAFETY: the processor has AVX2.
-        return unsafe { step_env_avx2(d, scheme, poisson, env, inlet, s) };
+        return unsafe { step_env_avx2(d, scheme, poisson, env, inlet, s, clock) };
     }
-    step_env_with::<false>(d, scheme, poisson, env, inlet, s)
+    step_env_with::<false>(d, scheme, poisson, env, inlet, s, clock)
 }
 
 /// [`step_env_with`] compiled for AVX2 (the stages are inlined into it).
@@ -203,8 +233,9 @@ unsafe fn step_env_avx2(
     env: EnvMut,
     inlet: &[f32],
     s: &mut Scratch,
+    clock: StageClock,
 ) -> EnvHealth {
-    step_env_with::<true>(d, scheme, poisson, env, inlet, s)
+    step_env_with::<true>(d, scheme, poisson, env, inlet, s, clock)
 }
 
 /// [`step_env`] on the chosen vector path.
@@ -216,7 +247,9 @@ fn step_env_with<const AVX2: bool>(
     env: EnvMut,
     inlet: &[f32],
     s: &mut Scratch,
+    mut clock: StageClock,
 ) -> EnvHealth {
+    use CpuStage::*;
     s.u_out.resize(d.n_u(), 0.0);
     s.v_out.resize(d.n_v(), 0.0);
     s.modes.resize(d.n_c(), 0.0);
@@ -237,6 +270,7 @@ fn step_env_with<const AVX2: bool>(
                 env.body,
                 solid.as_ref(),
             ));
+            clock.lap(Paint);
         }
         let (u_out, v_out) = (&mut s.u_out, &mut s.v_out);
         advect::advect::<AVX2>(
@@ -251,6 +285,7 @@ fn step_env_with<const AVX2: bool>(
             u_out,
             v_out,
         );
+        clock.lap(Advect);
         let (columns, fast) = (&mut s.columns, &mut s.fast_y);
         pressure::rhs(
             d,
@@ -262,15 +297,22 @@ fn step_env_with<const AVX2: bool>(
             columns,
             fast,
         );
+        clock.lap(PressureRhs);
         pressure::solve(d, poisson, &mut s.modes);
+        clock.lap(PressureSolve);
         pressure::back(d, poisson, &s.modes, env.p, columns, fast);
+        clock.lap(PressureBack);
         project::project(d, env.p, u_out, v_out);
         env.u.copy_from_slice(u_out);
         env.v.copy_from_slice(v_out);
+        clock.lap(Project);
         if swarm {
             let (m, a) = (&mut *env.members, env.actions);
             members::move_members(d, m, a, env.p, env.u, env.v, env.diags, env.bx);
+            clock.lap(Move);
         }
     }
-    diagnostics::diagnostics(d, env.u, env.v, env.p, env.divstar)
+    let health = diagnostics::diagnostics(d, env.u, env.v, env.p, env.divstar);
+    clock.lap(Diagnostics);
+    health
 }

@@ -25,15 +25,19 @@ pub(crate) struct CellRect {
 
 /// The smallest rectangle holding every cell of `body` with chi != 0 (None: all fluid).
 pub(crate) fn solid_extent(d: &Dim, body: &[[f32; 4]]) -> Option<CellRect> {
-    let (mut i, mut j) = (usize::MAX..0, usize::MAX..0);
+    let mut rect: Option<CellRect> = None;
     for (k, cell) in body.iter().enumerate() {
         if cell[0] != 0.0 {
             let (ci, cj) = (k % d.nx, k / d.nx);
-            (i.start, i.end) = (i.start.min(ci), i.end.max(ci + 1));
-            (j.start, j.end) = (j.start.min(cj), j.end.max(cj + 1));
+            let r = rect.get_or_insert(CellRect {
+                i: ci..ci + 1,
+                j: cj..cj + 1,
+            });
+            (r.i.start, r.i.end) = (r.i.start.min(ci), r.i.end.max(ci + 1));
+            (r.j.start, r.j.end) = (r.j.start.min(cj), r.j.end.max(cj + 1));
         }
     }
-    (!i.is_empty()).then_some(CellRect { i, j })
+    rect
 }
 
 /// Reusable buffers of [`advect`], sized for one environment.

@@ -9,6 +9,7 @@ use super::sample::Padded;
 use super::stencil::Dim;
 
 /// w = u + dt nu lap u into `w_u`, `w_v` (sized and their ghosts filled here).
+#[allow(clippy::needless_range_loop)] // input and padded output rows indexed together
 #[inline(always)] // into the step's vector-path instances (`super::simd`)
 pub(crate) fn diffuse(d: &Dim, u: &[f32], v: &[f32], w_u: &mut Padded, w_v: &mut Padded) {
     use super::sample::Face;

@@ -78,7 +78,7 @@ pub struct Scratch {
     u_out: Vec<f32>,
     v_out: Vec<f32>,
     modes: Vec<f32>,
-    /// A block of columns of the pressure transforms, [ny][BLOCK].
+    /// A block of columns of the pressure transforms, [ny][32].
     columns: Vec<f32>,
     /// The FFT plans of the y-transforms on tall grids.
     fast_y: Option<pressure::FastY>,

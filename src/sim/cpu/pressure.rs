@@ -21,8 +21,13 @@ use rustdct::{Dct2, Dct3, DctPlanner};
 
 use super::stencil::Dim;
 
-/// Columns handled together by the column transforms.
-const BLOCK: usize = 8;
+/// Columns handled together by the column transforms: four AVX2 registers of independent
+/// sums (a block of 8 would wait on one register's add latency at every row), then blocks
+/// of 8 and single columns for the rest.
+const BLOCK: usize = 32;
+const SMALL_BLOCK: usize = 8;
+/// Rows of p summed together by the back-transform.
+const BACK_ROWS: usize = 4;
 
 /// Divergence of u*, its column maxima into `divstar`, and the y-cosine modes of rho/dt div u*.
 /// The y-transforms of tall columns by FFT: DCT-II X_k = sum_j x_j cos(pi k (j + 1/2) / ny)
@@ -96,32 +101,20 @@ pub(crate) fn rhs(
 ) {
     column.resize(d.ny * BLOCK, 0.0);
     let mut fast = fast_y(d, fast);
-    let full = d.nx / BLOCK * BLOCK;
-    for i0 in (0..full).step_by(BLOCK) {
-        rhs_columns::<BLOCK>(
-            d,
-            poisson,
-            u,
-            v,
-            modes,
-            divstar,
-            column,
-            i0,
-            fast.as_deref_mut(),
-        );
-    }
-    for i0 in full..d.nx {
-        rhs_columns::<1>(
-            d,
-            poisson,
-            u,
-            v,
-            modes,
-            divstar,
-            column,
-            i0,
-            fast.as_deref_mut(),
-        );
+    let mut i0 = 0;
+    while i0 < d.nx {
+        let left = d.nx - i0;
+        let (c, m, f) = (&mut *column, poisson, fast.as_deref_mut());
+        i0 += if left >= BLOCK {
+            rhs_columns::<BLOCK>(d, m, u, v, modes, divstar, c, i0, f);
+            BLOCK
+        } else if left >= SMALL_BLOCK {
+            rhs_columns::<SMALL_BLOCK>(d, m, u, v, modes, divstar, c, i0, f);
+            SMALL_BLOCK
+        } else {
+            rhs_columns::<1>(d, m, u, v, modes, divstar, c, i0, f);
+            1
+        };
     }
 }
 
@@ -199,7 +192,10 @@ fn rhs_columns<const N: usize>(
     }
 }
 
-/// The Thomas sweeps of every mode, in place on `modes`, four modes at a time so that their
+/// Modes swept side by side: their recurrences' add and multiply latencies overlap.
+const SWEEP_LANES: usize = 8;
+
+/// The Thomas sweeps of every mode, in place on `modes`, `SWEEP_LANES` modes at a time so that their
 /// independent recurrences overlap instead of waiting on each other's latency.
 #[inline(always)] // into the step's vector-path instances (`super::simd`)
 pub(crate) fn solve(d: &Dim, poisson: &[f32], modes: &mut [f32]) {
@@ -208,8 +204,8 @@ pub(crate) fn solve(d: &Dim, poisson: &[f32], modes: &mut [f32]) {
     let (c_at, m_at) = (ny * ny, ny * ny + ny * nx);
     let mut k0 = 0;
     while k0 < ny {
-        let lanes = (ny - k0).min(4);
-        let mut prev = [0.0f32; 4];
+        let lanes = (ny - k0).min(SWEEP_LANES);
+        let mut prev = [0.0f32; SWEEP_LANES];
         for i in 0..nx {
             for (l, prev) in prev[..lanes].iter_mut().enumerate() {
                 let k = k0 + l;
@@ -218,7 +214,7 @@ pub(crate) fn solve(d: &Dim, poisson: &[f32], modes: &mut [f32]) {
                 *prev = y;
             }
         }
-        let mut next = [0.0f32; 4];
+        let mut next = [0.0f32; SWEEP_LANES];
         for i in (0..nx).rev() {
             for (l, next) in next[..lanes].iter_mut().enumerate() {
                 let k = k0 + l;
@@ -244,10 +240,10 @@ pub(crate) fn back(
     if let Some(f) = fast_y(d, fast) {
         return back_fast(d, modes, pres, f);
     }
-    mode.resize(d.ny * BLOCK, 0.0);
-    let full = d.nx / BLOCK * BLOCK;
-    for i0 in (0..full).step_by(BLOCK) {
-        back_columns::<BLOCK>(d, poisson, modes, pres, mode, i0);
+    mode.resize(d.ny * SMALL_BLOCK, 0.0);
+    let full = d.nx / SMALL_BLOCK * SMALL_BLOCK;
+    for i0 in (0..full).step_by(SMALL_BLOCK) {
+        back_columns::<SMALL_BLOCK>(d, poisson, modes, pres, mode, i0);
     }
     for i0 in full..d.nx {
         back_columns::<1>(d, poisson, modes, pres, mode, i0);
@@ -275,6 +271,7 @@ fn back_fast(d: &Dim, modes: &[f32], pres: &mut [f32], f: &mut FastY) {
 
 /// [`back`] for columns i0 .. i0 + N.
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // rows and lanes of parallel arrays, indexed together
 fn back_columns<const N: usize>(
     d: &Dim,
     poisson: &[f32],
@@ -288,29 +285,43 @@ fn back_columns<const N: usize>(
     for (k, m) in mode[..ny].iter_mut().enumerate() {
         m.copy_from_slice(&modes[k * nx + i0..k * nx + i0 + N]);
     }
-    for j in 0..ny.div_ceil(2) {
-        let q = &poisson[j * ny..(j + 1) * ny];
-        let mut even = [0.0f32; N];
+    // BACK_ROWS output rows at once, so that their sums are independent (the last group
+    // repeats its last row where ny / 2 is not a multiple of it).
+    let rows = ny.div_ceil(2);
+    let mut j0 = 0;
+    while j0 < rows {
+        let row = |r: usize| (j0 + r).min(rows - 1);
+        let mut even = [[0.0f32; N]; BACK_ROWS];
+        let mut odd = [[0.0f32; N]; BACK_ROWS];
         for k in (0..ny).step_by(2) {
-            for b in 0..N {
-                even[b] += q[k] * mode[k][b];
+            for r in 0..BACK_ROWS {
+                let q = poisson[row(r) * ny + k];
+                for b in 0..N {
+                    even[r][b] += q * mode[k][b];
+                }
             }
         }
-        let mut odd = [0.0f32; N];
         for k in (1..ny).step_by(2) {
+            for r in 0..BACK_ROWS {
+                let q = poisson[row(r) * ny + k];
+                for b in 0..N {
+                    odd[r][b] += q * mode[k][b];
+                }
+            }
+        }
+        for r in 0..BACK_ROWS.min(rows - j0) {
+            let j = j0 + r;
+            let mirror = ny - 1 - j;
             for b in 0..N {
-                odd[b] += q[k] * mode[k][b];
+                if mirror == j {
+                    pres[j * nx + i0 + b] = even[r][b];
+                } else {
+                    pres[j * nx + i0 + b] = even[r][b] + odd[r][b];
+                    pres[mirror * nx + i0 + b] = even[r][b] - odd[r][b];
+                }
             }
         }
-        let mirror = ny - 1 - j;
-        for b in 0..N {
-            if mirror == j {
-                pres[j * nx + i0 + b] = even[b];
-            } else {
-                pres[j * nx + i0 + b] = even[b] + odd[b];
-                pres[mirror * nx + i0 + b] = even[b] - odd[b];
-            }
-        }
+        j0 += BACK_ROWS;
     }
 }
 

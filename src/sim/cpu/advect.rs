@@ -26,16 +26,18 @@ pub(crate) struct CellRect {
 /// The smallest rectangle holding every cell of `body` with chi != 0 (None: all fluid).
 pub(crate) fn solid_extent(d: &Dim, body: &[[f32; 4]]) -> Option<CellRect> {
     let mut rect: Option<CellRect> = None;
-    for (k, cell) in body.iter().enumerate() {
-        if cell[0] != 0.0 {
-            let (ci, cj) = (k % d.nx, k / d.nx);
-            let r = rect.get_or_insert(CellRect {
-                i: ci..ci + 1,
-                j: cj..cj + 1,
-            });
-            (r.i.start, r.i.end) = (r.i.start.min(ci), r.i.end.max(ci + 1));
-            (r.j.start, r.j.end) = (r.j.start.min(cj), r.j.end.max(cj + 1));
-        }
+    for (cj, cells) in body.chunks_exact(d.nx).enumerate() {
+        let solid = |c: &[f32; 4]| c[0] != 0.0;
+        let (Some(lo), Some(hi)) = (cells.iter().position(solid), cells.iter().rposition(solid))
+        else {
+            continue;
+        };
+        let r = rect.get_or_insert(CellRect {
+            i: lo..hi + 1,
+            j: cj..cj + 1,
+        });
+        (r.i.start, r.i.end) = (r.i.start.min(lo), r.i.end.max(hi + 1));
+        r.j.end = cj + 1;
     }
     rect
 }
@@ -231,7 +233,7 @@ fn departures_u(d: &Dim, u: &[f32], v: &[f32], j: usize, h: f32, r: &mut Departu
         let (xs, ys) = (&mut r.x[..nx - 1], &mut r.y[..nx - 1]);
         for n in 0..nx - 1 {
             let sum = below[n] + below[n + 1] + above[n] + above[n + 1];
-            xs[n] = (n + 1) as f32 * p.dx - h * along[n];
+            xs[n] = (n as i32 + 1) as f32 * p.dx - h * along[n]; // i32: a vector conversion
             ys[n] = y - h * (0.25 * sum);
         }
     } else {
@@ -258,7 +260,7 @@ fn departures_v(d: &Dim, u: &[f32], v: &[f32], j: usize, h: f32, r: &mut Departu
         let (xs, ys) = (&mut r.x[..nx], &mut r.y[..nx]);
         for n in 0..nx {
             let sum = below[n] + below[n + 1] + above[n] + above[n + 1];
-            xs[n] = (n as f32 + 0.5) * p.dx - h * (0.25 * sum);
+            xs[n] = (n as i32 as f32 + 0.5) * p.dx - h * (0.25 * sum);
             ys[n] = y - h * along[n];
         }
     } else {

@@ -31,12 +31,15 @@ pub(crate) fn diffuse(d: &Dim, u: &[f32], v: &[f32], w_u: &mut Padded, w_v: &mut
         let out = &mut w_u.data[o..o + row];
         out[0] = u[j * row];
         if j >= 1 && j + 1 < ny {
-            let k0 = j * row;
+            let (down, mid, up) = (
+                &u[(j - 1) * row..j * row],
+                &u[j * row..(j + 1) * row],
+                &u[(j + 1) * row..(j + 2) * row],
+            );
             for i in 1..nx {
-                let k = k0 + i;
-                let c = u[k];
-                let lx = u[k + 1] + u[k - 1] - 2.0 * c;
-                let ly = u[k + row] + u[k - row] - 2.0 * c;
+                let c = mid[i];
+                let lx = mid[i + 1] + mid[i - 1] - 2.0 * c;
+                let ly = up[i] + down[i] - 2.0 * c;
                 out[i] = c + coef * (lx / ax + ly / ay);
             }
             out[nx] = edge_u(nx, j);
@@ -62,12 +65,15 @@ pub(crate) fn diffuse(d: &Dim, u: &[f32], v: &[f32], w_u: &mut Padded, w_v: &mut
         let o = w_v.at_v(0, j);
         let out = &mut w_v.data[o..o + nx];
         out[0] = edge_v(0, j);
-        let k0 = j * nx;
+        let (down, mid, up) = (
+            &v[(j - 1) * nx..j * nx],
+            &v[j * nx..(j + 1) * nx],
+            &v[(j + 1) * nx..(j + 2) * nx],
+        );
         for i in 1..nx - 1 {
-            let k = k0 + i;
-            let c = v[k];
-            let lx = v[k + 1] + v[k - 1] - 2.0 * c;
-            let ly = v[k + nx] + v[k - nx] - 2.0 * c;
+            let c = mid[i];
+            let lx = mid[i + 1] + mid[i - 1] - 2.0 * c;
+            let ly = up[i] + down[i] - 2.0 * c;
             out[i] = c + coef * (lx / ax + ly / ay);
         }
         out[nx - 1] = edge_v(nx - 1, j);

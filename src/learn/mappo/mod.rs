@@ -150,10 +150,11 @@ fn clip_norm(g: &mut [f32], max: f64) {
     }
 }
 
-/// Threads of the learner's own pool: `FLUXSWARM_LEARNER_THREADS`, default 1. On the 2-core
-/// development VM one thread was fastest (candle split even small products, and the
-/// hand-offs cost more than they saved; docs/performance.md, "The learner's cost"); many-core machines may gain from
-/// more at large batches.
+/// Threads of the learner's own pool: `FLUXSWARM_LEARNER_THREADS`, default 1; the matrix
+/// products of the hand-written networks split over them (with the same result). On the 2-core
+/// development VM a second thread gained nothing, with candle's networks and with the
+/// hand-written ones (docs/performance.md, "The learner's cost"); many-core machines may gain
+/// from more at large batches.
 pub fn learner_threads() -> anyhow::Result<usize> {
     match std::env::var("FLUXSWARM_LEARNER_THREADS") {
         Err(_) => Ok(1),

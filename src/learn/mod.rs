@@ -9,10 +9,12 @@
 //! the environments implement its trait with its [`transition`] types.
 
 pub mod adam;
+pub mod dense;
 pub mod env;
 pub mod gae;
 pub mod gaussian;
 pub mod mappo;
+pub mod mlp;
 pub mod nets;
 pub mod normalizer;
 pub mod pcgrad;

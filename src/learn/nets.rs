@@ -6,12 +6,15 @@
 //! Critic (centralised): joint state [B, N*8] -> 256 -> 256 (tanh) -> three linear heads of N
 //! values each -> [B, 3, N] (progress, energy, smoothness).
 //! Parameters are named through `VarBuilder::pp("actor")` / `pp("critic")`.
-//! The actor's backward pass is also written out by hand ([`Actor::backward`], batched over
-//! several losses), so that the learner's four actor gradients share one pass; a test holds it
-//! against candle's autograd.
+//! The learner trains with the same networks written out by hand on f32 slices
+//! ([`super::mlp`]); these candle versions are the reference its tests hold them to, and
+//! [`Actor::backward`] runs the hand-written backward pass (batched over several losses) on
+//! this network, so that a test holds it against candle's autograd.
 
 use candle_core::{Result, Tensor};
 use candle_nn::{Linear, Module, VarBuilder, linear};
+
+use super::mlp;
 
 pub const HIDDEN: usize = 256;
 pub const LOG_STD_MIN: f64 = -5.0;
@@ -33,6 +36,25 @@ pub struct ActorPass {
     /// [B, action_dim] each.
     pub mean: Tensor,
     pub log_std: Tensor,
+}
+
+impl ActorPass {
+    /// The same activations as plain row-major vectors, for [`mlp::actor::backward`].
+    pub fn to_acts(&self) -> Result<mlp::actor::ActorActs> {
+        let flat = |t: &Tensor| -> Result<Vec<f32>> {
+            t.flatten_all()?
+                .to_dtype(candle_core::DType::F32)?
+                .to_vec1()
+        };
+        Ok(mlp::actor::ActorActs {
+            rows: self.x.dim(0)?,
+            x: flat(&self.x)?,
+            h1: flat(&self.h1)?,
+            h2: flat(&self.h2)?,
+            mean: flat(&self.mean)?,
+            log_std: flat(&self.log_std)?,
+        })
+    }
 }
 
 impl Actor {
@@ -70,11 +92,10 @@ impl Actor {
     /// weighted per sample by `weights` [K, U, S] (the B rows are S samples of B / S rows each,
     /// in order): d loss_k / d output of row r = sum_u weights[k, u, s(r)] (d_mean, d_log_std)[u, r].
     ///
-    /// Back-propagation is linear and row-wise, so the U sets go down the network once each,
-    /// every layer's weight gradient is formed once per (set, sample), and the K losses are
-    /// weighted sums of those: about half the work of K separate backward passes when U = 2,
-    /// K = 4 and samples have 16 rows. Returns each parameter's K gradients [K, ..shape], named
-    /// as the parameters under the actor's prefix and in name order: head.bias, head.weight,
+    /// This is the learner's own backward pass ([`crate::learn::mlp::actor::backward`], on
+    /// f32 slices) run on this network's parameters and `pass`, so that the tests can hold it
+    /// against candle's autograd. Returns each parameter's K gradients [K, ..shape], named as
+    /// the parameters under the actor's prefix and in name order: head.bias, head.weight,
     /// l1.bias, l1.weight, l2.bias, l2.weight.
     pub fn backward(
         &self,
@@ -91,47 +112,56 @@ impl Actor {
                 weights.dims()
             );
         }
-        let n = b / s;
-        let w = weights.reshape((k, u * s))?;
-        // log_std = MIN + (MAX - MIN) s, s = sigmoid(raw + shift): d/d raw = (MAX - MIN) s (1 - s).
-        let span = LOG_STD_MAX - LOG_STD_MIN;
-        let sig = pass.log_std.affine(1.0 / span, -LOG_STD_MIN / span)?;
-        let d_raw_d_out = (sig.affine(-1.0, 1.0)? * sig)?.affine(span, 0.0)?;
-        let d_out = Tensor::cat(&[d_mean, &d_log_std.broadcast_mul(&d_raw_d_out)?], 2)?;
-        // A linear layer y = x W^T + c, per set and sample: M = dy^T x [out, in] and the row sum
-        // of dy; loss k's dW and dc are the weighted sums of those over sets and samples.
-        let layer = |dy: &Tensor, x: &Tensor| -> Result<(Tensor, Tensor)> {
-            let (out, inp) = (dy.dim(2)?, x.dim(1)?);
-            let dy = dy.reshape((u * s, n, out))?;
-            let xs = x
-                .reshape((1, s, n, inp))?
-                .broadcast_as((u, s, n, inp))?
-                .reshape((u * s, n, inp))?;
-            let m = dy.transpose(1, 2)?.contiguous()?.matmul(&xs)?;
-            let dw = w
-                .matmul(&m.reshape((u * s, out * inp))?)?
-                .reshape((k, out, inp))?;
-            Ok((dw, w.matmul(&dy.sum(1)?)?))
+        let flat = |t: &Tensor| -> Result<Vec<f32>> {
+            t.flatten_all()?
+                .to_dtype(candle_core::DType::F32)?
+                .to_vec1()
         };
-        // Through a linear layer and the tanh before it: d pre = (dy W) (1 - h^2).
-        let down = |dy: &Tensor, wt: &Tensor, h: &Tensor| -> Result<Tensor> {
-            let (out, inp) = (dy.dim(2)?, h.dim(1)?);
-            let dh = dy.reshape((u * b, out))?.matmul(wt)?.reshape((u, b, inp))?;
-            dh.broadcast_mul(&h.sqr()?.affine(-1.0, 1.0)?)
+        let layout = mlp::actor::layout(self.l1.weight().dim(1)?, self.action_dim);
+        let mut p = Vec::with_capacity(layout.len());
+        for (name, _) in layout.params() {
+            let layer = match name.split('.').next() {
+                Some("head") => &self.head,
+                Some("l1") => &self.l1,
+                _ => &self.l2,
+            };
+            let t = if name.ends_with("bias") {
+                layer.bias().expect("linear layers have biases")
+            } else {
+                layer.weight()
+            };
+            p.extend(flat(t)?);
+        }
+        let acts = pass.to_acts()?;
+        let w = flat(weights)?;
+        let weights = mlp::Weights {
+            w: &w,
+            losses: k,
+            sets: u,
+            samples: s,
         };
-        let (dw_head, db_head) = layer(&d_out, &pass.h2)?;
-        let d2 = down(&d_out, self.head.weight(), &pass.h2)?;
-        let (dw2, db2) = layer(&d2, &pass.h1)?;
-        let d1 = down(&d2, self.l2.weight(), &pass.h1)?;
-        let (dw1, db1) = layer(&d1, &pass.x)?;
-        Ok(vec![
-            ("head.bias", db_head),
-            ("head.weight", dw_head),
-            ("l1.bias", db1),
-            ("l1.weight", dw1),
-            ("l2.bias", db2),
-            ("l2.weight", dw2),
-        ])
+        let grads = mlp::actor::backward(
+            &layout,
+            &p,
+            &acts,
+            &flat(d_mean)?,
+            &flat(d_log_std)?,
+            weights,
+        );
+        let dev = d_mean.device();
+        layout
+            .params()
+            .iter()
+            .map(|(name, shape)| {
+                let slot = layout.slot(name);
+                let per: Vec<f32> = grads
+                    .iter()
+                    .flat_map(|g| g[slot.clone()].to_vec())
+                    .collect();
+                let dims: Vec<usize> = std::iter::once(k).chain(shape.iter().copied()).collect();
+                Ok((*name, Tensor::from_vec(per, dims, dev)?))
+            })
+            .collect()
     }
 
     fn split_head(&self, out: &Tensor) -> Result<(Tensor, Tensor)> {

@@ -4,9 +4,12 @@
 //! bonus's gradient; the critic learns from 0.5 x the sum of its three heads' MSE. The actor's
 //! and the critic's gradients are clipped separately; Adam for both.
 //! The four actor gradients come from one forward and one batched backward pass
-//! ([`Actor::backward`]): each surrogate's gradient is d loss_k / d lp (per sample, plain Rust
-//! in [`clipped_surrogate_grad`]) times the shared d lp / d output, and the entropy bonus is a
-//! second set of output gradients. Tests hold both against candle's autograd of the losses.
+//! ([`mlp::actor::backward`]): each surrogate's gradient is d loss_k / d lp (per sample, plain
+//! Rust in [`clipped_surrogate_grad`]) times the shared d lp / d output, and the entropy bonus
+//! is a second set of output gradients. Tests hold both against candle's autograd of the losses.
+//! The networks run by hand on flat f32 parameter vectors ([`mlp`]: whole-minibatch matrix
+//! products, no tensor per operation); candle's variables (`var_map`) hold the same values
+//! after every update, for checkpoints and the candle reference networks of the tests.
 //! Samples are joint transitions (one environment at one step); each epoch splits them into
 //! `minibatches` random minibatches.
 //! The learner's state and construction are here; acting and the rollout ([`rollout`]), the
@@ -22,11 +25,16 @@ use candle_nn::{VarBuilder, VarMap};
 use super::adam::Adam;
 use super::env::MultiAgentEnv;
 use super::gae::{Rollout, gae};
-use super::nets::{Actor, ActorPass, Critic, gaussian_log_prob};
+use super::mlp::{self, Layout, actor::ActorActs};
+#[cfg(test)]
+use super::nets::ActorPass;
+use super::nets::{Actor, Critic};
 use super::normalizer::ObsNormalizer;
 use super::pcgrad::{average, pcgrad};
 use super::ppo::clipped_surrogate_grad;
-use super::surgery::{flatten, named_vars, set_values, values};
+#[cfg(test)]
+use super::surgery::flatten;
+use super::surgery::{named_vars, set_values, values};
 use super::transition::EpisodeSummary;
 use crate::checkpoint::Archive;
 use crate::rng::Rng;
@@ -77,32 +85,33 @@ pub struct Learner {
     agents: usize,
     obs_dim: usize,
     map: VarMap,
+    /// candle's actor on the same variables: the reference the tests hold the hand-written
+    /// passes to (training never runs it).
+    #[cfg(test)]
     actor: Actor,
-    critic: Critic,
     actor_vars: Vec<(String, Var)>,
     critic_vars: Vec<(String, Var)>,
+    /// The parameters the learner trains, flat in `actor_vars` / `critic_vars` order (the
+    /// layouts of [`mlp::actor::layout`] and [`mlp::critic::layout`]); copied into the
+    /// variables after every update ([`Self::sync_vars`]).
+    actor_layout: Layout,
+    critic_layout: Layout,
+    actor_p: Vec<f32>,
+    critic_p: Vec<f32>,
     opt_actor: Adam,
     opt_critic: Adam,
     /// Running observation statistics when `normalize_observations` is on.
     normalizer: Option<ObsNormalizer>,
     rng: Rng,
-    dev: Device,
-    /// A rayon pool of [`learner_threads`] threads (default one) that runs the networks' tensor
-    /// work (`act`, `values`, the update). candle splits even these small matrix products over
-    /// rayon's threads (gemm), and on two cores the hand-offs cost more than they save. The
-    /// global pool stays free for the native fluid step.
+    /// A rayon pool of [`learner_threads`] threads (default one) that runs the networks' work
+    /// (`act`, `values`, the update); the matrix products split over its threads when it has
+    /// more than one (with the same result). The global pool stays free for the native fluid
+    /// step.
     pool: std::sync::Arc<rayon::ThreadPool>,
 }
 
 fn adam(vars: &[(String, Var)], lr: f64) -> Adam {
     Adam::new(vars.iter().map(|v| v.1.elem_count()).sum(), lr)
-}
-
-/// One Adam step on `vars` with the flat gradient `g`.
-fn adam_step(opt: &mut Adam, vars: &[(String, Var)], g: &[f32]) -> candle_core::Result<()> {
-    let mut p = values(vars)?;
-    opt.step(&mut p, g);
-    set_values(vars, &p)
 }
 
 /// Re-initialises every parameter from `rng` (candle cannot seed its CPU generator), with
@@ -141,10 +150,11 @@ fn clip_norm(g: &mut [f32], max: f64) {
     }
 }
 
-/// Threads of the learner's own pool: `FLUXSWARM_LEARNER_THREADS`, default 1. On the 2-core
-/// development VM one thread was fastest (candle split even small products, and the
-/// hand-offs cost more than they saved; docs/performance.md, "The learner's cost"); many-core machines may gain from
-/// more at large batches.
+/// Threads of the learner's own pool: `FLUXSWARM_LEARNER_THREADS`, default 1; the matrix
+/// products of the hand-written networks split over them (with the same result). On the 2-core
+/// development VM a second thread gained nothing, with candle's networks and with the
+/// hand-written ones (docs/performance.md, "The learner's cost"); many-core machines may gain
+/// from more at large batches.
 pub fn learner_threads() -> anyhow::Result<usize> {
     match std::env::var("FLUXSWARM_LEARNER_THREADS") {
         Err(_) => Ok(1),
@@ -162,12 +172,35 @@ impl Learner {
         let dev = Device::Cpu;
         let map = VarMap::new();
         let vb = VarBuilder::from_varmap(&map, DType::F32, &dev);
-        let actor = Actor::new(vb.pp("actor"), obs_dim, 2)?;
-        let critic = Critic::new(vb.pp("critic"), agents, obs_dim)?;
+        let _actor = Actor::new(vb.pp("actor"), obs_dim, 2)?;
+        // candle's critic only creates its variables (the checkpoints' names and shapes).
+        Critic::new(vb.pp("critic"), agents, obs_dim)?;
         let mut rng = Rng::new(seed);
         seed_parameters(&map, &mut rng)?;
         let actor_vars = named_vars(&map, "actor");
         let critic_vars = named_vars(&map, "critic");
+        let actor_layout = mlp::actor::layout(obs_dim, 2);
+        let critic_layout = mlp::critic::layout(agents, obs_dim);
+        for (tag, layout, vars) in [
+            ("actor", &actor_layout, &actor_vars),
+            ("critic", &critic_layout, &critic_vars),
+        ] {
+            let want: Vec<(String, Vec<usize>)> = layout
+                .params()
+                .iter()
+                .map(|(n, s)| (format!("{tag}.{n}"), s.clone()))
+                .collect();
+            let have: Vec<(String, Vec<usize>)> = vars
+                .iter()
+                .map(|(n, v)| (n.clone(), v.dims().to_vec()))
+                .collect();
+            anyhow::ensure!(
+                want == have,
+                "the {tag}'s layout {want:?} is not its variables' {have:?}"
+            );
+        }
+        let actor_p = values(&actor_vars)?;
+        let critic_p = values(&critic_vars)?;
         let opt_actor = adam(&actor_vars, cfg.learning_rate);
         let opt_critic = adam(&critic_vars, cfg.learning_rate);
         let normalizer = cfg
@@ -178,15 +211,18 @@ impl Learner {
             agents,
             obs_dim,
             map,
-            actor,
-            critic,
+            #[cfg(test)]
+            actor: _actor,
             actor_vars,
             critic_vars,
+            actor_layout,
+            critic_layout,
+            actor_p,
+            critic_p,
             opt_actor,
             opt_critic,
             normalizer,
             rng,
-            dev,
             pool: std::sync::Arc::new(
                 rayon::ThreadPoolBuilder::new()
                     .num_threads(learner_threads()?)
@@ -205,6 +241,12 @@ impl Learner {
 
     pub fn var_map(&self) -> &VarMap {
         &self.map
+    }
+
+    /// Copies the trained flat parameters into candle's variables.
+    fn sync_vars(&self) -> candle_core::Result<()> {
+        set_values(&self.actor_vars, &self.actor_p)?;
+        set_values(&self.critic_vars, &self.critic_p)
     }
 }
 

@@ -22,10 +22,9 @@ impl Learner {
         deterministic: bool,
     ) -> anyhow::Result<(Vec<[f32; 2]>, Vec<f32>)> {
         let rows = obs.len() / self.obs_dim;
-        let x = Tensor::from_slice(obs, (rows, self.obs_dim), &self.dev)?;
-        let (mean, log_std) = self.actor.forward(&x)?;
-        let m: Vec<f32> = mean.flatten_all()?.to_vec1()?;
-        let s: Vec<f32> = log_std.exp()?.flatten_all()?.to_vec1()?;
+        let acts = mlp::actor::forward(&self.actor_layout, &self.actor_p, obs, rows);
+        let (m, log_std) = (&acts.mean, &acts.log_std);
+        let s: Vec<f32> = log_std.iter().map(|x| x.exp()).collect();
         let mut actions = Vec::with_capacity(rows);
         for r in 0..rows {
             let mut a = [0.0f32; 2];
@@ -39,26 +38,22 @@ impl Learner {
             }
             actions.push(a);
         }
-        let a = Tensor::from_slice(&actions.concat(), (rows, 2), &self.dev)?;
-        let lp: Vec<f32> = gaussian_log_prob(&a, &mean, &log_std)?
-            .reshape((rows / self.agents, self.agents))?
-            .sum(1)?
-            .to_vec1()?;
+        let lp = mlp::actor::joint_log_prob(&actions.concat(), m, log_std, self.agents);
         Ok((actions, lp))
     }
 
     /// Values [B][N][3] of joint states given as network inputs [B][N][D].
     pub fn values(&self, obs: &[f32]) -> anyhow::Result<Vec<f32>> {
         self.pool.install(|| {
-            let b = obs.len() / (self.agents * self.obs_dim);
-            let x = Tensor::from_slice(obs, (b, self.agents * self.obs_dim), &self.dev)?;
-            Ok(self
-                .critic
-                .forward(&x)?
-                .transpose(1, 2)?
-                .contiguous()?
-                .flatten_all()?
-                .to_vec1()?)
+            let (n, b) = (self.agents, obs.len() / (self.agents * self.obs_dim));
+            let c = mlp::critic::forward(&self.critic_layout, &self.critic_p, obs, b);
+            // [B, 3, N] -> [B, N, 3].
+            let mut v = vec![0.0f32; c.values.len()];
+            for (at, x) in c.values.iter().enumerate() {
+                let (s, k, i) = (at / (3 * n), at / n % 3, at % n);
+                v[(s * n + i) * 3 + k] = *x;
+            }
+            Ok(v)
         })
     }
 

@@ -79,6 +79,8 @@ impl Learner {
         {
             (opt.m, opt.v, opt.t) = (m, v, t);
         }
+        self.actor_p = values(&self.actor_vars)?;
+        self.critic_p = values(&self.critic_vars)?;
         self.normalizer = normalizer;
         self.rng.0 = rng;
         Ok(())

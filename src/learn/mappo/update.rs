@@ -1,14 +1,13 @@
 //! The PPO update: the four actor gradients from one batched backward pass, PCGrad (or the
 //! average) over the three objectives, the entropy bonus, gradient clipping and Adam steps for
-//! actor and critic, per minibatch and epoch.
+//! actor and critic, per minibatch and epoch, all on the flat parameter vectors with the
+//! hand-written networks ([`mlp`]); candle's variables are refreshed once at the end.
 
 use super::*;
 
 impl Learner {
-    /// The three objectives' actor gradients and the entropy bonus's, flattened in
-    /// `actor_vars` order, from one forward pass and one batched backward pass, given each
-    /// objective's d loss / d (joint log-probability) `d_lp` [3][B]. Also the mean entropy
-    /// and mean log σ. Rows are agents, `b` samples of `n` agents each; `actions` [B N][2].
+    /// [`Self::actor_grads`] for a candle forward pass (the tests' reference networks).
+    #[cfg(test)]
     pub(super) fn actor_gradients(
         &self,
         pass: &ActorPass,
@@ -17,9 +16,23 @@ impl Learner {
         b: usize,
         n: usize,
     ) -> anyhow::Result<ActorGradients> {
+        Ok(self.actor_grads(&pass.to_acts()?, actions, d_lp, b, n))
+    }
+
+    /// The three objectives' actor gradients and the entropy bonus's, flattened in
+    /// `actor_vars` order, from one forward pass `acts` and one batched backward pass, given
+    /// each objective's d loss / d (joint log-probability) `d_lp` [3][B]. Also the mean entropy
+    /// and mean log σ. Rows are agents, `b` samples of `n` agents each; `actions` [B N][2].
+    pub(super) fn actor_grads(
+        &self,
+        acts: &ActorActs,
+        actions: &[f32],
+        d_lp: &[Vec<f32>],
+        b: usize,
+        n: usize,
+    ) -> ActorGradients {
         let rows = b * n;
-        let mean: Vec<f32> = pass.mean.flatten_all()?.to_vec1()?;
-        let log_std: Vec<f32> = pass.log_std.flatten_all()?.to_vec1()?;
+        let (mean, log_std) = (&acts.mean, &acts.log_std);
         // Two sets of row gradients. Set 0, per row and action dimension: d log N / d mean =
         // z / σ and d log N / d log σ = z^2 - 1, weighted by each objective's d loss / d lp of
         // the row's sample. Set 1, the entropy bonus -c mean_rows sum_dims (log σ + const):
@@ -39,35 +52,28 @@ impl Learner {
             weights[o * 2 * b..o * 2 * b + b].copy_from_slice(w);
         }
         weights[(k - 1) * 2 * b + b..].fill(1.0);
-        let shape = (2, rows, 2);
-        let grads = self.actor.backward(
-            pass,
-            &Tensor::from_vec(d_mean, shape, &self.dev)?,
-            &Tensor::from_vec(d_log_std, shape, &self.dev)?,
-            &Tensor::from_vec(weights, (k, 2, b), &self.dev)?,
-        )?;
-        let mut flat = vec![Vec::new(); k];
-        for ((name, _), (suffix, g)) in self.actor_vars.iter().zip(&grads) {
-            assert_eq!(
-                name.strip_prefix("actor."),
-                Some(*suffix),
-                "actor parameter order"
-            );
-            let g: Vec<f32> = g.flatten_all()?.to_vec1()?;
-            let per = g.len() / k;
-            for (o, f) in flat.iter_mut().enumerate() {
-                f.extend_from_slice(&g[o * per..(o + 1) * per]);
-            }
-        }
+        let mut flat = mlp::actor::backward(
+            &self.actor_layout,
+            &self.actor_p,
+            acts,
+            &d_mean,
+            &d_log_std,
+            mlp::Weights {
+                w: &weights,
+                losses: k,
+                sets: 2,
+                samples: b,
+            },
+        );
         let entropy_bonus = flat.pop().expect("k >= 1");
         let mean_log_std = log_std.iter().map(|&x| x as f64).sum::<f64>() / log_std.len() as f64;
         let entropy = 2.0 * (0.5 + 0.5 * (2.0 * std::f64::consts::PI).ln() + mean_log_std);
-        Ok(ActorGradients {
+        ActorGradients {
             objectives: flat,
             entropy_bonus,
             entropy,
             mean_log_std,
-        })
+        }
     }
 
     pub(super) fn update(
@@ -93,19 +99,13 @@ impl Learner {
                         .flat_map(|&s| src[s * width..(s + 1) * width].iter().copied())
                         .collect()
                 };
-                let o = Tensor::from_slice(&gather(obs, n * d), (b * n, d), &self.dev)?;
+                let x = gather(obs, n * d);
                 let a_flat: Vec<f32> = chunk
                     .iter()
                     .flat_map(|&s| actions[s * n..(s + 1) * n].concat())
                     .collect();
-                let a = Tensor::from_slice(&a_flat, (b * n, 2), &self.dev)?;
-                let ret_t = Tensor::from_slice(&gather(returns, n * 3), (b, n, 3), &self.dev)?;
-
-                let pass = self.actor.forward_pass(&o)?;
-                let lp_new: Vec<f32> = gaussian_log_prob(&a, &pass.mean, &pass.log_std)?
-                    .reshape((b, n))?
-                    .sum(1)?
-                    .to_vec1()?;
+                let acts = mlp::actor::forward(&self.actor_layout, &self.actor_p, &x, b * n);
+                let lp_new = mlp::actor::joint_log_prob(&a_flat, &acts.mean, &acts.log_std, n);
                 let (lp_old, adv_b) = (gather(logp_old, 1), gather(adv, n * 3));
                 let mut d_lp = Vec::with_capacity(3);
                 for k in 0..3 {
@@ -115,7 +115,7 @@ impl Learner {
                     stats.loss[k] += loss;
                     d_lp.push(g);
                 }
-                let grads = self.actor_gradients(&pass, &a_flat, &d_lp, b, n)?;
+                let grads = self.actor_grads(&acts, &a_flat, &d_lp, b, n);
                 let surgery = if self.cfg.pcgrad {
                     let order: Vec<Vec<usize>> = (0..3)
                         .map(|i| {
@@ -137,16 +137,20 @@ impl Learner {
                     .map(|(a, b)| a + b)
                     .collect();
                 clip_norm(&mut g, self.cfg.max_grad_norm);
-                adam_step(&mut self.opt_actor, &self.actor_vars, &g)?;
+                self.opt_actor.step(&mut self.actor_p, &g);
 
-                let x = o.reshape((b, n * d))?;
-                let v = self.critic.forward(&x)?.transpose(1, 2)?;
-                let value_loss = (v - &ret_t)?.sqr()?.mean_all()?.affine(1.5, 0.0)?; // 0.5 x 3 heads
-                let mut gc = flatten(&value_loss.backward()?, &self.critic_vars)?;
+                // The joint states are the same rows, [b, n d].
+                let c = mlp::critic::forward(&self.critic_layout, &self.critic_p, &x, b);
+                let (value_loss, mut gc) = mlp::critic::value_loss_grad(
+                    &self.critic_layout,
+                    &self.critic_p,
+                    &c,
+                    &gather(returns, n * 3),
+                );
                 clip_norm(&mut gc, self.cfg.max_grad_norm);
-                adam_step(&mut self.opt_critic, &self.critic_vars, &gc)?;
+                self.opt_critic.step(&mut self.critic_p, &gc);
 
-                stats.value_loss += value_loss.to_scalar::<f32>()? as f64;
+                stats.value_loss += value_loss;
                 stats.entropy += grads.entropy;
                 stats.mean_log_std += grads.mean_log_std;
                 for p in 0..3 {
@@ -169,6 +173,7 @@ impl Learner {
         {
             *x /= count;
         }
+        self.sync_vars()?;
         Ok(stats)
     }
 }

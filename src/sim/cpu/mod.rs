@@ -82,6 +82,19 @@ pub struct Scratch {
     columns: Vec<f32>,
     /// The FFT plans of the y-transforms on tall grids.
     fast_y: Option<pressure::FastY>,
+    /// Take the plain path even where AVX2 is present ([`Scratch::portable`]).
+    portable: bool,
+}
+
+impl Scratch {
+    /// Scratch whose step takes the plain-Rust path whatever the processor has: the reference
+    /// the AVX2 path is tested against (the two give the same bits).
+    pub fn portable() -> Self {
+        Self {
+            portable: true,
+            ..Self::default()
+        }
+    }
 }
 
 /// One environment's part of a [`BatchState`], borrowed for its step.
@@ -213,7 +226,7 @@ fn step_env(
     clock: StageClock,
 ) -> EnvHealth {
     #[cfg(target_arch = "x86_64")]
-    if simd::avx2() {
+    if !s.portable && simd::avx2() {
         // SAFETY: the processor has AVX2.
         return unsafe { step_env_avx2(d, scheme, poisson, env, inlet, s, clock) };
     }

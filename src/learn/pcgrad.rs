@@ -15,7 +15,7 @@ pub struct Surgery {
 }
 
 /// a . b in f64, with eight partial sums so that the compiler vectorises it.
-fn dot(a: &[f32], b: &[f32]) -> f64 {
+pub(crate) fn dot(a: &[f32], b: &[f32]) -> f64 {
     let mut acc = [0.0f64; 8];
     let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
     let tail: f64 = ca

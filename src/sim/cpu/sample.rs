@@ -128,12 +128,7 @@ pub(crate) fn sample_row<const AVX2: bool>(
             super::sample_avx2::sample_row(d, a, face, j, first, len, r, want_extrema)
         };
     }
-    // Chunks whose nine neighbours are all stored: u faces load columns i - 1 ..= i + 1 of
-    // 0 ..= nx + 1; v faces columns i - 1 ..= i + 1 of -1 ..= nx.
-    let last_fast = match face {
-        Face::U => d.nx + 1,
-        Face::V => d.nx,
-    };
+    let last_fast = fast_end(d, face);
     let mut n = 0;
     while n + LANES <= len && first + n + LANES <= last_fast {
         sample_chunk(d, a, face, j, first + n, n, r, want_extrema);
@@ -141,6 +136,16 @@ pub(crate) fn sample_row<const AVX2: bool>(
     }
     for m in n..len {
         sample_one(d, a, face, m, r, want_extrema);
+    }
+}
+
+/// One past the last face a chunk may reach and still find its nine neighbours stored: u
+/// faces load columns i - 1 ..= i + 1 of 0 ..= nx + 1; v faces those of -1 ..= nx.
+#[inline(always)]
+pub(super) fn fast_end(d: &Dim, face: Face) -> usize {
+    match face {
+        Face::U => d.nx + 1,
+        Face::V => d.nx,
     }
 }
 

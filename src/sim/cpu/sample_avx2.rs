@@ -5,7 +5,7 @@
 
 use std::arch::x86_64::*;
 
-use super::sample::{Departures, Face, LANES, Padded, sample_chunk, sample_one};
+use super::sample::{Departures, Face, LANES, Padded, fast_end, sample_chunk, sample_one};
 use super::stencil::Dim;
 
 /// `floor_i32` of every lane (in range and finite; a NaN lane gives i32::MIN, which no fast
@@ -59,10 +59,7 @@ pub(super) fn sample_row(
     want_extrema: bool,
 ) {
     let p = &d.p;
-    let last_fast = match face {
-        Face::U => d.nx + 1,
-        Face::V => d.nx,
-    };
+    let last_fast = fast_end(d, face);
     let (sx, sy) = (_mm256_set1_ps(p.inv_dx), _mm256_set1_ps(p.inv_dy));
     let (nxf, nyf) = (_mm256_set1_ps(d.nx as f32), _mm256_set1_ps(d.ny as f32));
     let (zero, half) = (_mm256_setzero_ps(), _mm256_set1_ps(0.5));

@@ -63,3 +63,23 @@ run_seed() {
 EVAL_ENVS=${EVAL_ENVS:-4}
 EVAL_EPISODES=${EVAL_EPISODES:-8}
 EVAL_SEED=${EVAL_SEED:-1}
+
+# episodes_once DIR K ARGS...: `rollout ARGS --episodes K --no-traces --out DIR` unless DIR
+# already holds all K episodes (episodes.csv with K rows).
+episodes_once() {
+    local dir=$1 k=$2
+    shift 2
+    if [ -s "$dir/episodes.csv" ] && [ "$(($(wc -l <"$dir/episodes.csv") - 1))" -ge "$k" ]; then
+        return
+    fi
+    rm -rf "$dir"
+    say "rollout $dir: $*"
+    fluxswarm rollout "$@" --episodes "$k" --no-traces --out "$dir" >/dev/null 2>"$dir.log" ||
+        { say "rollout $dir failed: $(tail -1 "$dir.log")"; return 1; }
+    rm -f "$dir.log"
+}
+
+# The scenario flags every map and frontier rollout shares: random start phase, start jitter
+# of one cell (0.1 mm) in x and y, and the CPU backend (the same bits on every machine).
+SCENARIO_SET=(--set inlet.random_phase=true --set env.position_jitter_m=1e-4
+    --set solver.backend=native)

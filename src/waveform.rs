@@ -91,6 +91,14 @@ impl Waveform {
         Self::new(points, period_s)
     }
 
+    /// The same waveform with every velocity multiplied by `factor` (`inlet.scale`).
+    pub fn scaled(mut self, factor: f64) -> Self {
+        for p in &mut self.points {
+            p.1 *= factor;
+        }
+        self
+    }
+
     pub fn period_s(&self) -> f64 {
         self.period_s
     }

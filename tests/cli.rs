@@ -317,8 +317,9 @@ fn rollout_writes_episodes_swarm_and_trajectories() {
         lines[0],
         "env,episode,steps,outcome,progress,energy,smoothness,progress_mean,energy_sum,smoothness_sum,scalar_return,final_x_com_mm"
     );
-    // Both environments truncate together every 3 steps: 4 episodes end by step 6, and exactly
-    // the 3 asked for are counted (environment 1's second episode is not).
+    // Both environments truncate together every 3 steps. The quota is 2 episodes for
+    // environment 0 and 1 for environment 1: 4 episodes end by step 6, and exactly the 3 asked
+    // for are counted (environment 1's second episode is not).
     assert_eq!(lines.len(), 1 + 3, "{episodes}");
     assert!(lines[3].starts_with("0,1,3,timeout,"), "{episodes}");
     assert!(
@@ -329,11 +330,27 @@ fn rollout_writes_episodes_swarm_and_trajectories() {
     assert!(swarm.starts_with(
         "env,episode,step,t_s,inlet_u_m_s,x_com_mm,y_com_mm,sigma_x_mm,sigma_y_mm,r_g_mm\n"
     ));
-    // Steps 0..=3 of two episodes in each of two environments.
-    assert_eq!(swarm.lines().count(), 1 + 2 * 2 * 4, "{swarm}");
+    // Steps 0..=3 of the three counted episodes only.
+    assert_eq!(swarm.lines().count(), 1 + 3 * 4, "{swarm}");
     let traj = read("trajectories.csv");
     assert!(traj.starts_with("env,episode,step,member,x_mm,y_mm,vx_mm_s,vy_mm_s,ax,ay,f_prop_x_nN,f_prop_y_nN,f_hydro_x_nN,f_hydro_y_nN,f_drag_x_nN,f_drag_y_nN,f_contact_x_nN,f_contact_y_nN\n"));
-    assert_eq!(traj.lines().count(), 1 + 2 * 2 * 4 * 2);
+    assert_eq!(traj.lines().count(), 1 + 3 * 4 * 2);
+    // One start row per counted episode; phase 0 (random_phase is off).
+    let starts = read("starts.csv");
+    let rows: Vec<&str> = starts.lines().collect();
+    assert_eq!(
+        rows[0],
+        "env,episode,start_phase_s,start_inlet_u_m_s,start_x_com_mm"
+    );
+    let keys: Vec<String> = rows[1..]
+        .iter()
+        .map(|r| r.split(',').take(3).collect::<Vec<_>>().join(","))
+        .collect();
+    assert_eq!(
+        keys,
+        ["0,0,0.000000", "1,0,0.000000", "0,1,0.000000"],
+        "{starts}"
+    );
     let row: Vec<&str> = traj
         .lines()
         .find(|l| l.starts_with("0,0,1,0,"))
@@ -352,6 +369,57 @@ fn rollout_writes_episodes_swarm_and_trajectories() {
     ] {
         assert!(out.join("frames").join(name).exists(), "{name}");
     }
+}
+
+#[test]
+fn rollout_quota_and_no_traces_with_a_privileged_controller() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ro");
+    let args = [
+        "rollout",
+        "--policy",
+        "scripted:0:90:0.0:0.5",
+        "--envs",
+        "2",
+        "--episodes",
+        "2",
+        "--no-traces",
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "inlet.random_phase=true",
+        "--set",
+        "inlet.scale=0.5",
+    ];
+    let o = bin(&[&args[..], SMALL_SWARM].concat());
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!out.join("swarm.csv").exists() && !out.join("trajectories.csv").exists());
+    let config = std::fs::read_to_string(out.join("config.toml")).unwrap();
+    let header = config.lines().next().unwrap();
+    assert!(
+        header.contains("policy scripted:0:90:0.0:0.5 (privileged, reads the inlet phase"),
+        "{header}"
+    );
+    assert!(config.contains("scale = 0.5"), "{config}");
+    // One episode from each environment (quota 1 + 1), with its random start phase recorded.
+    let episodes = std::fs::read_to_string(out.join("episodes.csv")).unwrap();
+    let mut envs: Vec<&str> = episodes.lines().skip(1).map(|l| &l[..2]).collect();
+    envs.sort();
+    assert_eq!(envs, ["0,", "1,"], "{episodes}");
+    let starts = std::fs::read_to_string(out.join("starts.csv")).unwrap();
+    let phases: Vec<f64> = starts
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(phases.len(), 2);
+    assert!(phases.iter().all(|p| (0.0..1.0).contains(p)) && phases[0] != phases[1]);
+    let o = bin(&[&["rollout", "--policy", "wall-angle:x"], SMALL_SWARM].concat());
+    assert!(
+        !o.status.success() && text(&o).contains("wall-angle:30"),
+        "{}",
+        text(&o)
+    );
 }
 
 #[test]

@@ -5,7 +5,7 @@
 mod common;
 
 use fluxswarm_gpu::config::Resolved;
-use fluxswarm_gpu::env::policy::Baseline;
+use fluxswarm_gpu::env::policy::Controller;
 use fluxswarm_gpu::env::{OBS_DIM, Outcome};
 use fluxswarm_gpu::gpu::kernels::FieldBinding;
 use fluxswarm_gpu::rng::Rng;
@@ -142,7 +142,7 @@ fn the_same_seed_gives_the_same_trajectory_and_k_of_a_batch_equals_k_alone() {
         let mut obs = env.reset().unwrap();
         let mut trace = obs.clone();
         for _ in 0..4 {
-            let a = Baseline::Random.act_all(&obs, &mut rng);
+            let a = Controller::Random.act_all(&obs, &[0.0; 2], 1.0, &mut rng);
             let s = env.step(&a).unwrap();
             obs = s.transition.obs;
             trace.extend(&obs);

@@ -1,6 +1,6 @@
 //! `fluxswarm-gpu eval --checkpoint PATH`: runs a trained policy (sampled, or its mean action
 //! with `--deterministic`) in the configuration saved with it and writes the same files as
-//! `rollout` (episodes.csv, swarm.csv, trajectories.csv, config.toml, frames).
+//! `rollout` (episodes.csv, starts.csv, swarm.csv, trajectories.csv, config.toml, frames).
 
 use std::path::PathBuf;
 
@@ -16,7 +16,8 @@ pub struct EvalArgs {
     /// A checkpoint file, or a `train` run directory (its newest checkpoint).
     #[arg(long, value_name = "PATH")]
     pub checkpoint: PathBuf,
-    /// Finished episodes to collect, over all environments.
+    /// Finished episodes to collect, over all environments (a quota per environment, as
+    /// `rollout`).
     #[arg(long, default_value_t = 8)]
     pub episodes: u64,
     /// Act with the policy's mean action instead of sampling.
@@ -35,6 +36,9 @@ pub struct EvalArgs {
     /// Also write `animation.gif` of the frames (needs --frames-every).
     #[arg(long)]
     pub gif: bool,
+    /// Write only episodes.csv, starts.csv and config.toml (no swarm.csv, trajectories.csv).
+    #[arg(long)]
+    pub no_traces: bool,
     #[arg(long, value_enum, default_value_t = AdapterChoice::Auto)]
     pub adapter: AdapterChoice,
     /// How the step runs: `--set solver.backend=auto|adapter|native` (or
@@ -58,5 +62,6 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         out: Some(args.out.unwrap_or_else(|| run_dir::default_dir("eval"))),
         frames_every: args.frames_every,
         gif: args.gif,
+        no_traces: args.no_traces,
     })
 }

@@ -5,6 +5,7 @@ mod bench_cpu;
 mod common;
 mod eval;
 mod info;
+mod map;
 mod report;
 mod rollout;
 mod simulate;
@@ -39,6 +40,8 @@ pub enum Command {
     Eval(eval::EvalArgs),
     /// Figures and report.md from train runs, baselines and before/after rollouts.
     Report(report::ReportArgs),
+    /// The controllability map (map.csv, points.csv, heatmaps) from a directory of rollouts.
+    Map(map::MapArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -50,5 +53,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Train(a) => train::run(a),
         Command::Eval(a) => eval::run(a),
         Command::Report(a) => report::run(a),
+        Command::Map(a) => map::run(a),
     }
 }

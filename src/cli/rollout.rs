@@ -1,8 +1,13 @@
 //! `fluxswarm-gpu rollout` (and `eval`): runs a baseline or a trained policy in E environments
 //! until K episodes have finished (over all environments) and writes `episodes.csv`,
-//! `swarm.csv`, `trajectories.csv` (SPEC section 7), `config.toml` and frames of environment 0
+//! `swarm.csv`, `trajectories.csv` (SPEC section 7), `starts.csv` (the start phase of every
+//! episode), `config.toml` and frames of environment 0
 //! (`frames/env0_ep<episode:04>_s<step:06>.png`). A trained policy brings its configuration
 //! from its checkpoint, so it runs in the physics it was trained in.
+//!
+//! K episodes over E environments are collected as a quota per environment (the first
+//! ceil(K/E) or floor(K/E) episodes each environment finishes), so that long episodes are not
+//! under-counted: taking the first K to finish over all environments would favour short ones.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -11,7 +16,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use fluxswarm_gpu::checkpoint::{self, Archive};
 use fluxswarm_gpu::config::{Config, Resolved};
-use fluxswarm_gpu::env::policy::Baseline;
+use fluxswarm_gpu::env::policy::Controller;
 use fluxswarm_gpu::env::{OBS_DIM, SwarmEnv, reward};
 use fluxswarm_gpu::gpu::params::{GpuMember, GpuMemberDiag};
 use fluxswarm_gpu::learn::mappo::Learner;
@@ -23,12 +28,15 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use super::common::ConfigArgs;
 
+type Csv = std::io::BufWriter<std::fs::File>;
+
 #[derive(Debug, Args)]
 pub struct RolloutArgs {
     #[command(flatten)]
     pub common: ConfigArgs,
-    /// upstream, wall, zero, random, or a trained checkpoint: a `.safetensors` file or a
-    /// `train` run directory (its newest checkpoint).
+    /// upstream, wall, wall-angle:DEG, zero, random, scripted (privileged: reads the inlet
+    /// phase; scripted:CALM_DEG:STORM_DEG:START_S:END_S sets its parameters), or a trained
+    /// checkpoint: a `.safetensors` file or a `train` run directory (its newest checkpoint).
     #[arg(long)]
     pub policy: String,
     /// With a trained policy: act with the mean action instead of sampling.
@@ -36,7 +44,8 @@ pub struct RolloutArgs {
     pub deterministic: bool,
     #[arg(long, default_value_t = 1)]
     pub envs: usize,
-    /// Finished episodes to collect, over all environments.
+    /// Finished episodes to collect, over all environments: a quota of K/E per environment
+    /// (the remainder to the first ones), so long episodes count as often as short ones.
     #[arg(long, default_value_t = 1)]
     pub episodes: u64,
     #[arg(long, default_value_t = 0)]
@@ -50,11 +59,15 @@ pub struct RolloutArgs {
     /// Also write `animation.gif` of the frames (needs --frames-every).
     #[arg(long)]
     pub gif: bool,
+    /// Write only episodes.csv, starts.csv and config.toml (no swarm.csv, trajectories.csv):
+    /// for sweeps of many episodes.
+    #[arg(long)]
+    pub no_traces: bool,
 }
 
 /// What chooses the actions.
 enum Policy {
-    Baseline(Baseline, Rng),
+    Controller(Controller, Rng),
     Trained {
         learner: Box<Learner>,
         deterministic: bool,
@@ -62,9 +75,13 @@ enum Policy {
 }
 
 impl Policy {
-    fn act_all(&mut self, obs: &[f32]) -> anyhow::Result<Vec<[f32; 2]>> {
+    fn act_all(&mut self, obs: &[f32], env: &SwarmEnv) -> anyhow::Result<Vec<[f32; 2]>> {
         Ok(match self {
-            Policy::Baseline(b, rng) => b.act_all(obs, rng),
+            Policy::Controller(c, rng) => {
+                let batch = env.batch();
+                let t: Vec<f64> = (0..env.n_env()).map(|e| batch.waveform_time_s(e)).collect();
+                c.act_all(obs, &t, batch.waveform().period_s(), rng)
+            }
             Policy::Trained {
                 learner,
                 deterministic,
@@ -87,16 +104,16 @@ fn load_trained(path: &std::path::Path, seed: u64) -> anyhow::Result<(Learner, R
 }
 
 pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
-    let (resolved, mut policy) = match args.policy.parse::<Baseline>() {
-        Ok(b) => {
+    let (resolved, mut policy) = match args.policy.parse::<Controller>() {
+        Ok(c) => {
             if args.deterministic {
                 bail!(
                     "--deterministic applies to trained policies; {} has no noise to remove",
-                    b.name()
+                    c.name()
                 );
             }
             let rng = Rng::new(args.seed.wrapping_add(0x9E37));
-            (args.common.load()?, Policy::Baseline(b, rng))
+            (args.common.load()?, Policy::Controller(c, rng))
         }
         Err(e) => {
             let path = std::path::Path::new(&args.policy);
@@ -141,8 +158,15 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
     let opened = args.common.open_batch(&resolved, args.envs)?;
     // The header names the policy and protocol (`report` labels baselines with it); the rest
     // loads back with --config.
+    let privileged = match &policy {
+        Policy::Controller(Controller::Scripted(p), _) => format!(
+            " (privileged, reads the inlet phase: {} deg outside and {} deg inside [{} s, {} s) of the period)",
+            p.calm_deg, p.storm_deg, p.storm_start_s, p.storm_end_s
+        ),
+        _ => String::new(),
+    };
     let header = format!(
-        "# fluxswarm-gpu {} rollout: policy {}{}, seed {}, {} environments, {} episodes, adapter {}\n",
+        "# fluxswarm-gpu {} rollout: policy {}{}{privileged}, seed {}, {} environments, {} episodes, adapter {}\n",
         env!("CARGO_PKG_VERSION"),
         args.policy,
         if args.deterministic {
@@ -169,19 +193,28 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
         Ok(std::io::BufWriter::new(f))
     };
     let mut episodes_csv = EpisodesCsv::create(&out, false).context("creating episodes.csv")?;
-    let mut swarm_csv = create("swarm.csv")?;
+    let mut starts_csv = create("starts.csv")?;
     writeln!(
-        swarm_csv,
-        "env,episode,step,t_s,inlet_u_m_s,x_com_mm,y_com_mm,sigma_x_mm,sigma_y_mm,r_g_mm"
+        starts_csv,
+        "env,episode,start_phase_s,start_inlet_u_m_s,start_x_com_mm"
     )?;
-    let mut traj_csv = create("trajectories.csv")?;
-    writeln!(
-        traj_csv,
-        "env,episode,step,member,x_mm,y_mm,vx_mm_s,vy_mm_s,ax,ay,f_prop_x_nN,f_prop_y_nN,f_hydro_x_nN,f_hydro_y_nN,f_drag_x_nN,f_drag_y_nN,f_contact_x_nN,f_contact_y_nN"
-    )?;
+    let mut traces = if args.no_traces {
+        None
+    } else {
+        let mut swarm_csv = create("swarm.csv")?;
+        writeln!(
+            swarm_csv,
+            "env,episode,step,t_s,inlet_u_m_s,x_com_mm,y_com_mm,sigma_x_mm,sigma_y_mm,r_g_mm"
+        )?;
+        let mut traj_csv = create("trajectories.csv")?;
+        writeln!(
+            traj_csv,
+            "env,episode,step,member,x_mm,y_mm,vx_mm_s,vy_mm_s,ax,ay,f_prop_x_nN,f_prop_y_nN,f_hydro_x_nN,f_hydro_y_nN,f_drag_x_nN,f_drag_y_nN,f_contact_x_nN,f_contact_y_nN"
+        )?;
+        Some((swarm_csv, traj_csv))
+    };
 
-    let log_state = |swarm_csv: &mut dyn Write,
-                     traj_csv: &mut dyn Write,
+    let log_state = |traces: &mut Option<(Csv, Csv)>,
                      e: usize,
                      episode: u64,
                      step: u32,
@@ -190,6 +223,9 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
                      fs: &[GpuMemberDiag],
                      actions: &[[f32; 2]]|
      -> std::io::Result<()> {
+        let Some((swarm_csv, traj_csv)) = traces else {
+            return Ok(());
+        };
         let pos: Vec<[f64; 2]> = ms
             .iter()
             .map(|m| [m.pos[0] as f64 * 1e3, m.pos[1] as f64 * 1e3])
@@ -223,38 +259,53 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
         }
         Ok(())
     };
-
-    let mut obs = env.reset()?;
-    let zero_actions = vec![[0.0f32; 2]; n];
-    let zero_forces = vec![GpuMemberDiag::default(); n];
-    for e in 0..args.envs {
-        let ms = initial_members(&env, e);
-        log_state(
-            &mut swarm_csv,
-            &mut traj_csv,
-            e,
-            0,
-            0,
-            env.batch().inlet_u(e),
-            &ms,
-            &zero_forces,
-            &zero_actions,
+    // The state at the start of episode `episode` of environment e: starts.csv, step 0 of the
+    // traces and, for environment 0, its first frame.
+    let start_episode = |traces: &mut Option<(Csv, Csv)>,
+                         starts_csv: &mut Csv,
+                         env: &SwarmEnv,
+                         e: usize,
+                         episode: u64|
+     -> anyhow::Result<()> {
+        let batch = env.batch();
+        let inlet = batch.inlet_u(e);
+        let ms = initial_members(env, e);
+        let x_com = ms.iter().map(|m| m.pos[0] as f64).sum::<f64>() / ms.len() as f64 * 1e3;
+        writeln!(
+            starts_csv,
+            "{e},{episode},{:.6},{inlet:.6},{x_com:.5}",
+            batch.phase_s(e)
         )?;
+        log_state(
+            traces,
+            e,
+            episode,
+            0,
+            inlet,
+            &ms,
+            &vec![GpuMemberDiag::default(); n],
+            &vec![[0.0f32; 2]; n],
+        )?;
+        if e == 0 && args.frames_every > 0 {
+            let zero_forces = vec![GpuMemberDiag::default(); n];
+            write_frame(env, &out, episode, 0, &ms, &zero_forces, f_max, &resolved)?;
+        }
+        Ok(())
+    };
+
+    // Each environment's share of the K episodes (module header).
+    let quota: Vec<u64> = (0..args.envs as u64)
+        .map(|e| args.episodes / args.envs as u64 + u64::from(e < args.episodes % args.envs as u64))
+        .collect();
+    let mut counted = vec![0u64; args.envs];
+    let mut obs = env.reset()?;
+    for (e, &q) in quota.iter().enumerate() {
+        if q > 0 {
+            start_episode(&mut traces, &mut starts_csv, &env, e, 0)?;
+        }
     }
     let frame_due =
         |step: u32| args.frames_every > 0 && (step as u64).is_multiple_of(args.frames_every);
-    if frame_due(0) {
-        write_frame(
-            &env,
-            &out,
-            0,
-            0,
-            &initial_members(&env, 0),
-            &zero_forces,
-            f_max,
-            &resolved,
-        )?;
-    }
     let bar = ProgressBar::new(args.episodes);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} episodes  {msg}")
@@ -264,7 +315,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
     let mut steps_total = 0u64;
     let start = std::time::Instant::now();
     while finished < args.episodes {
-        let actions = policy.act_all(&obs)?;
+        let actions = policy.act_all(&obs, &env)?;
         // Inlet velocity at the end of this step, taken before any environment resets.
         let inlet_after: Vec<f64> = (0..args.envs)
             .map(|e| env.batch().inlet_u_after(e, dt))
@@ -272,14 +323,16 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
         let step = env.step(&actions)?;
         steps_total += args.envs as u64;
         for e in 0..args.envs {
+            if counted[e] == quota[e] {
+                continue;
+            }
             let (ms, fs) = (
                 &step.members[e * n..(e + 1) * n],
                 &step.forces[e * n..(e + 1) * n],
             );
             let k = step.episode_step[e];
             log_state(
-                &mut swarm_csv,
-                &mut traj_csv,
+                &mut traces,
                 e,
                 step.episode[e],
                 k,
@@ -291,10 +344,8 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
             if e == 0 && frame_due(k) {
                 write_frame(&env, &out, step.episode[e], k, ms, fs, f_max, &resolved)?;
             }
-            if let Some(s) = &step.episodes[e]
-                && finished < args.episodes
-            {
-                // Exactly K episodes: others ending in the same step are not counted.
+            if let Some(s) = &step.episodes[e] {
+                counted[e] += 1;
                 finished += 1;
                 episodes_csv.write(0, s)?;
                 bar.inc(1);
@@ -302,31 +353,18 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
                     "last: env {e} {} after {} steps, progress {:.2}",
                     s.outcome, s.steps, s.progress
                 ));
-                if finished < args.episodes {
-                    let ms = initial_members(&env, e);
-                    let next = step.episode[e] + 1;
-                    log_state(
-                        &mut swarm_csv,
-                        &mut traj_csv,
-                        e,
-                        next,
-                        0,
-                        env.batch().inlet_u(e),
-                        &ms,
-                        &zero_forces,
-                        &zero_actions,
-                    )?;
-                    if e == 0 && frame_due(0) {
-                        write_frame(&env, &out, next, 0, &ms, &zero_forces, f_max, &resolved)?;
-                    }
+                if counted[e] < quota[e] {
+                    start_episode(&mut traces, &mut starts_csv, &env, e, step.episode[e] + 1)?;
                 }
             }
         }
         obs = step.transition.obs;
     }
     bar.finish();
-    for w in [&mut swarm_csv, &mut traj_csv] {
-        w.flush()?;
+    starts_csv.flush()?;
+    if let Some((swarm_csv, traj_csv)) = &mut traces {
+        swarm_csv.flush()?;
+        traj_csv.flush()?;
     }
     let wall = start.elapsed().as_secs_f64();
     log::info!(

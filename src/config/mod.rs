@@ -187,4 +187,18 @@ mod tests {
         assert_eq!(r.config.solver.advection, Advection::SemiLagrangian);
         assert!((r.waveform.at(0.25) - 0.15).abs() < 1e-12);
     }
+
+    #[test]
+    fn inlet_scale_multiplies_every_velocity_and_the_peak() {
+        let r = Config::load(None, &["inlet.scale=0.8".into()]).unwrap();
+        // (0.030, 400 mm/s) and (0.150, -15 mm/s) scaled by 0.8; 0.09 s lies on the plateau.
+        assert!((r.waveform.at(0.09) - 0.32).abs() < 1e-12);
+        assert!((r.waveform.at(0.2) + 0.012).abs() < 1e-12);
+        assert!((r.waveform.peak_abs() - 0.32).abs() < 1e-12);
+        assert!((r.config.cfl_number(&r.waveform) - 0.8).abs() < 1e-12);
+        let err = Config::load(None, &["inlet.scale=0".into()])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("inlet.scale"), "{err}");
+    }
 }

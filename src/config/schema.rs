@@ -83,6 +83,14 @@ pub struct Inlet {
     pub csv: Option<PathBuf>,
     #[serde(default)]
     pub random_phase: bool,
+    /// Multiplies every waveform velocity (points or CSV), so a scenario can scale the flow
+    /// without restating it; the observation's velocity scale (the waveform's peak) follows.
+    #[serde(default = "unit_scale")]
+    pub scale: f64,
+}
+
+fn unit_scale() -> f64 {
+    1.0
 }
 
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]

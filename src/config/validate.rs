@@ -51,6 +51,7 @@ impl Config {
         positive("time.control_dt_s", self.time.control_dt_s)?;
         at_least("time.substeps", self.time.substeps, 1)?;
         positive("inlet.period_s", self.inlet.period_s)?;
+        positive("inlet.scale", self.inlet.scale)?;
         self.validate_swarm()?;
         at_least("env.max_steps", self.env.max_steps, 1)?;
         let tr = &self.train;
@@ -86,7 +87,8 @@ impl Config {
                 self.inlet.points.iter().map(|p| (p[0], p[1])).collect(),
                 self.inlet.period_s,
             )?,
-        };
+        }
+        .scaled(self.inlet.scale);
 
         let diffusion = self.diffusion_number();
         if diffusion > MAX_DIFFUSION_NUMBER {

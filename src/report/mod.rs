@@ -14,6 +14,9 @@
 
 pub mod analysis;
 pub mod data;
+pub mod heatmap;
+pub mod map;
+pub mod map_output;
 pub mod markdown;
 pub mod plot;
 pub mod stats;

@@ -149,10 +149,19 @@ fn tick(v: f64, d: usize) -> String {
 
 /// Draws the panels stacked into `path` (WIDTH x panels * PANEL_HEIGHT px).
 pub fn save(path: &Path, panels: &[Panel]) -> anyhow::Result<()> {
-    register_font()?;
     let (w, h) = (WIDTH, PANEL_HEIGHT * panels.len().max(1) as u32);
+    save_rgb(path, (w, h), |buf| draw(buf, (w, h), panels))
+}
+
+/// Draws a `size` RGB figure with `draw` (the embedded font registered) and writes it as a PNG.
+pub fn save_rgb(
+    path: &Path,
+    (w, h): (u32, u32),
+    draw: impl FnOnce(&mut [u8]) -> Result<(), Box<dyn std::error::Error>>,
+) -> anyhow::Result<()> {
+    register_font()?;
     let mut buf = vec![0u8; (w * h * 3) as usize];
-    draw(&mut buf, (w, h), panels).map_err(|e| anyhow!("drawing {}: {e}", path.display()))?;
+    draw(&mut buf).map_err(|e| anyhow!("drawing {}: {e}", path.display()))?;
     // Best compression: figures are committed and shown in READMEs.
     let file = std::fs::File::create(path).with_context(|| {
         format!(

@@ -60,6 +60,20 @@ pub fn mean_ci95(values: &[f64]) -> (f64, f64) {
     (mean, t975(n - 1) * s / (n as f64).sqrt())
 }
 
+/// The 95 % Wilson score interval of a binomial proportion k/n (z = 1.96):
+/// (p + z^2/2n -+ z sqrt(p(1-p)/n + z^2/4n^2)) / (1 + z^2/n); (0, 1) for n = 0.
+pub fn wilson95(k: usize, n: usize) -> (f64, f64) {
+    if n == 0 {
+        return (0.0, 1.0);
+    }
+    let z = 1.959_963_984_540_054;
+    let (p, n) = (k as f64 / n as f64, n as f64);
+    let d = 1.0 + z * z / n;
+    let centre = (p + z * z / (2.0 * n)) / d;
+    let half = z / d * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt();
+    ((centre - half).max(0.0), (centre + half).min(1.0))
+}
+
 /// A curve with a band around it: `lo <= mean <= hi` at each `x`.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Band {
@@ -142,6 +156,24 @@ fn union_grid<'a>(xs: impl Iterator<Item = &'a [f64]>) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn wilson_intervals_match_hand_computed_values() {
+        // (0.1611...) is the textbook upper bound for 0 of 20; the rest by the formula by hand.
+        for (k, n, lo, hi) in [
+            (0, 20, 0.0, 0.161_125_158),
+            (10, 20, 0.299_298_008, 0.700_701_992),
+            (20, 20, 0.838_874_842, 1.0),
+            (3, 40, 0.025_836_026, 0.198_642_335),
+        ] {
+            let (l, h) = wilson95(k, n);
+            assert!(
+                (l - lo).abs() < 1e-8 && (h - hi).abs() < 1e-8,
+                "{k}/{n}: {l} {h}"
+            );
+        }
+        assert_eq!(wilson95(0, 0), (0.0, 1.0));
+    }
 
     #[test]
     fn rolling_mean_by_hand() {

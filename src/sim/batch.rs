@@ -323,10 +323,18 @@ pub trait FlowBatch: Send {
     fn time_s(&self, e: usize) -> f64 {
         self.core().time_s[e]
     }
+    /// Waveform time of environment e now: its time since reset plus its start phase (s).
+    fn waveform_time_s(&self, e: usize) -> f64 {
+        let c = self.core();
+        c.time_s[e] + c.phase_s[e]
+    }
+    /// Start phase of environment e's episode (s into the waveform period).
+    fn phase_s(&self, e: usize) -> f64 {
+        self.core().phase_s[e]
+    }
     /// Inlet centreline velocity of environment e now (m/s).
     fn inlet_u(&self, e: usize) -> f64 {
-        let c = self.core();
-        c.waveform.at(c.time_s[e] + c.phase_s[e])
+        self.core().waveform.at(self.waveform_time_s(e))
     }
     /// Inlet centreline velocity of environment e `dt` seconds from now (m/s).
     fn inlet_u_after(&self, e: usize, dt: f64) -> f64 {

@@ -73,6 +73,7 @@ episodes_once() {
         return
     fi
     rm -rf "$dir"
+    mkdir -p "$(dirname "$dir")"
     say "rollout $dir: $*"
     fluxswarm rollout "$@" --episodes "$k" --no-traces --out "$dir" >/dev/null 2>"$dir.log" ||
         { say "rollout $dir failed: $(tail -1 "$dir.log")"; return 1; }

@@ -5,13 +5,16 @@
 # seed MAP_SEED (default 1; the scripted controller was tuned on seeds above 1000). Then one
 # wall-drag probe per flow scale (a member pinned at the lower wall, zero thrust, one cycle) and
 # `fluxswarm-gpu map`, which writes the CSVs and heatmaps into MAP_RESULTS (default
-# assets/results). Resumable: finished rollouts are skipped.
-# Usage: bash experiments/controllability_map.sh [OUT]   (default runs/experiments/controllability_map)
+# assets/results). The rollouts (episodes.csv, starts.csv and config.toml only, a few KB each)
+# are written under assets/results/controllability_map/ and committed, so a clean checkout
+# resumes the map: finished rollouts are skipped. Points run thrust by thrust, from the
+# highest flow scale down, so the frontier band comes first.
+# Usage: bash experiments/controllability_map.sh [OUT]   (default assets/results/controllability_map)
 source "$(dirname "$0")/common.sh"
-out=${1:-runs/experiments/controllability_map}
-read -r -a scales <<<"${MAP_SCALES:-0.5 0.6 0.7 0.8 0.9 1.0}"
+out=${1:-assets/results/controllability_map}
+read -r -a scales <<<"${MAP_SCALES:-1.0 0.9 0.8 0.7 0.6 0.5}"
 read -r -a thrusts <<<"${MAP_THRUSTS:-8.5e-7 2.5e-6 8.5e-6}"
-read -r -a policies <<<"${MAP_POLICIES:-zero random upstream wall-angle:20 wall wall-angle:70 scripted}"
+read -r -a policies <<<"${MAP_POLICIES:-zero random upstream wall-angle:30 wall wall-angle:60 scripted}"
 K=${MAP_EPISODES:-20}
 ENVS=${MAP_ENVS:-4}
 SEED=${MAP_SEED:-1}
@@ -29,8 +32,8 @@ for s in "${scales[@]}"; do
             --set "swarm.pinned=[0]" --set env.max_steps=200 >/dev/null
     fi
 done
-for s in "${scales[@]}"; do
-    for f in "${thrusts[@]}"; do
+for f in "${thrusts[@]}"; do
+    for s in "${scales[@]}"; do
         for p in "${policies[@]}"; do
             episodes_once "$out/s${s}_f$f/${p//:/-}" "$K" --policy "$p" --envs "$ENVS" \
                 --seed "$SEED" "${SCENARIO_SET[@]}" --set "inlet.scale=$s" \

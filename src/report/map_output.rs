@@ -323,3 +323,75 @@ pub fn figures(cells: &[Cell], probes: &[WallDrag], out: &Path) -> anyhow::Resul
     }
     Ok(written)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::map::Rate;
+    use super::*;
+
+    fn cell(policy: &str, scale: f64, k: usize) -> Cell {
+        Cell {
+            scale,
+            peak_inlet_m_s: 0.4 * scale,
+            max_thrust_n: 8.5e-7,
+            policy: policy.into(),
+            all: Rate::of(k, 20),
+            systole: Rate::of(0, 0),
+            diastole: Rate::of(k, 20),
+            failures: 20 - k,
+            timeouts: 0,
+            mean_success_time_s: f64::NAN,
+            median_cycles: 1.0,
+            upstream_mm_per_cycle: 0.0,
+        }
+    }
+
+    #[test]
+    fn each_point_gets_its_best_constant_its_best_angle_and_the_gap() {
+        let cells = vec![
+            cell("zero", 0.9, 0),
+            cell("upstream", 0.9, 2),
+            cell("wall", 0.9, 5),
+            cell("wall-angle:60", 0.9, 5),
+            cell("scripted", 0.9, 15),
+            cell("random", 1.0, 1),
+            cell("wall-angle:30", 1.0, 0),
+        ];
+        let pts = points(&cells);
+        assert_eq!(pts.len(), 2);
+        // A tie (5 and 5) goes to the smaller angle.
+        assert_eq!(pts[0].best_constant.policy, "wall");
+        assert_eq!(pts[0].best_angle.unwrap().policy, "wall");
+        assert!((pts[0].gap() - 0.5).abs() < 1e-12);
+        assert_eq!(pts[1].best_constant.policy, "random");
+        assert_eq!(pts[1].best_angle.unwrap().policy, "wall-angle:30");
+        assert!(pts[1].scripted.is_none() && pts[1].gap().is_nan());
+        let csv = points_csv(&pts);
+        let rows: Vec<&str> = csv.lines().collect();
+        assert_eq!(rows[0], POINTS_HEADER);
+        assert!(
+            rows[1].starts_with("0.9,850.0,20,wall,0.2500,"),
+            "{}",
+            rows[1]
+        );
+        // Wilson intervals of 5/20 and 15/20 worked out by hand.
+        assert!(
+            rows[1].contains(",0.2500,0.1119,0.4687,45,0.2500,"),
+            "{}",
+            rows[1]
+        );
+        assert!(
+            rows[1].ends_with(",0.7500,0.5313,0.8881,0.5000"),
+            "{}",
+            rows[1]
+        );
+        let probe = WallDrag {
+            scale: 0.9,
+            force_n: vec![1e-6, 1e-8],
+        };
+        let map = map_csv(&cells, &[probe]);
+        let first: Vec<&str> = map.lines().nth(1).unwrap().split(',').collect();
+        assert_eq!(first.len(), MAP_HEADER.split(',').count());
+        assert_eq!(&first[first.len() - 3..], ["1000.0", "0.8500", "0.5000"]);
+    }
+}

@@ -1,13 +1,13 @@
 //! Checkpoints as a user meets them: `train --resume` after a lost checkpoint continues exactly
-//! as an uninterrupted run (logs and final state bit for bit, on one adapter), Ctrl-C writes a
-//! checkpoint the run resumes from, `eval` and `rollout --policy` run a trained checkpoint, and
-//! damaged or misused checkpoints fail with the file named and a way out.
+//! as an uninterrupted run (logs and final state bit for bit, on one adapter), Ctrl-C and
+//! SIGTERM write a checkpoint the run resumes from (after SIGTERM, to the same result as an
+//! uninterrupted run), a second signal stops at once, `eval` and `rollout --policy` run a
+//! trained checkpoint, and damaged or misused checkpoints fail with the file named and a way
+//! out.
 
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::time::{Duration, Instant};
 
 use common::cli::{SMALL_SWARM, bin, text};
 use fluxswarm_gpu::checkpoint::{self, Archive};
@@ -81,18 +81,23 @@ fn resume_matches_an_uninterrupted_run(extra: &[&str]) {
     let o = bin(&["train", "--resume", b_s, "--steps", "48"]);
     assert!(o.status.success(), "{}", text(&o));
     assert!(text(&o).contains("resuming") && text(&o).contains("update 4"));
+    assert_same_run(&a, &b, 6);
+    // Only the newest three checkpoints are kept.
+    assert_eq!(checkpoint::list(&a.join("checkpoints")).len(), 3);
+}
 
+/// Runs a and b logged the same `updates` updates and episodes and ended in the same state,
+/// bit for bit: networks, optimiser, normaliser, RNGs, fields, members, episode clocks.
+fn assert_same_run(a: &Path, b: &Path, updates: u64) {
     assert_eq!(read(&a.join("episodes.csv")), read(&b.join("episodes.csv")));
-    let ua = updates_without_timing(&a);
-    assert_eq!(ua.len(), 1 + 6);
-    assert_eq!(ua, updates_without_timing(&b));
-    // The final states agree bit for bit: networks, optimiser, normaliser, RNGs, fields,
-    // members, episode clocks.
+    let ua = updates_without_timing(a);
+    assert_eq!(ua.len() as u64, 1 + updates);
+    assert_eq!(ua, updates_without_timing(b));
     let (ca, cb) = (
-        Archive::load(&newest(&a)).unwrap(),
-        Archive::load(&newest(&b)).unwrap(),
+        Archive::load(&newest(a)).unwrap(),
+        Archive::load(&newest(b)).unwrap(),
     );
-    assert_eq!(ca.meta("update").unwrap(), "6");
+    assert_eq!(ca.meta("update").unwrap(), updates.to_string());
     for name in [
         "learner.param.actor.l1.weight",
         "learner.param.critic.l2.bias",
@@ -134,61 +139,165 @@ fn resume_matches_an_uninterrupted_run(extra: &[&str]) {
             "{name}"
         );
     }
-    // Only the newest three checkpoints are kept.
-    assert_eq!(checkpoint::list(&a.join("checkpoints")).len(), 3);
 }
 
-#[test]
-fn ctrl_c_checkpoints_and_the_run_resumes_from_there() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
-    let out_s = out.to_str().unwrap();
-    let _lock = common::gpu().0;
-    let mut args = train_args(out_s, "100000", &[]);
-    args[8] = "1000"; // --checkpoint-every: only Ctrl-C writes one
-    let child = Command::new(env!("CARGO_BIN_EXE_fluxswarm-gpu"))
-        .args(&args)
-        .env("NODEVICE_SELECT", "1")
-        .env("RUST_LOG", "info")
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while std::fs::read_to_string(out.join("updates.csv"))
-        .map(|s| s.lines().count() < 3)
-        .unwrap_or(true)
-    {
-        assert!(
-            start.elapsed() < Duration::from_secs(120),
-            "no updates logged"
-        );
-        std::thread::sleep(Duration::from_millis(50));
+/// The runs stopped by a signal (sent with kill(2), so Unix only).
+#[cfg(unix)]
+mod signalled {
+    use std::process::{Command, Output};
+
+    use super::*;
+
+    /// Starts a long training run into `out` that writes no checkpoint of its own, sends it
+    /// `signals` (one right after the other) once it has logged two updates, and returns what it
+    /// printed and its exit status.
+    fn train_until_signalled(out: &Path, signals: &[i32]) -> Output {
+        train_until_signalled_under(&[], out, signals)
     }
-    let kill = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(kill.success());
-    let o = child.wait_with_output().unwrap();
-    let t = text(&o);
-    assert_eq!(o.status.code(), Some(130), "{t}");
-    assert!(t.contains("--resume"), "says how to continue: {t}");
-    let ck = Archive::load(&newest(&out)).unwrap();
-    let update: u64 = ck.meta_parse("update").unwrap();
-    let logged = read(&out.join("updates.csv")).lines().count() as u64 - 1;
-    assert!(
-        update >= 2 && update == logged,
-        "checkpoint {update}, logged {logged}"
-    );
-    drop(_lock);
-    let target = ((update + 2) * 8).to_string();
-    let o = bin(&["train", "--resume", out_s, "--steps", &target]);
-    assert!(o.status.success(), "{}", text(&o));
-    assert_eq!(
-        read(&out.join("updates.csv")).lines().count() as u64,
-        1 + update + 2
-    );
+
+    /// [`train_until_signalled`] started through `wrapper` (e.g. `nohup`, which execs it).
+    fn train_until_signalled_under(wrapper: &[&str], out: &Path, signals: &[i32]) -> Output {
+        let mut args = train_args(out.to_str().unwrap(), "1000000", &[]);
+        args[8] = "1000"; // --checkpoint-every: only the signal writes one
+        let bin = env!("CARGO_BIN_EXE_fluxswarm-gpu");
+        let mut cmd = Command::new(wrapper.first().copied().unwrap_or(bin));
+        if !wrapper.is_empty() {
+            cmd.args(&wrapper[1..]).arg(bin);
+        }
+        let child = cmd
+            .args(&args)
+            .env("NODEVICE_SELECT", "1")
+            .env("RUST_LOG", "info")
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        common::cli::signal_after(child, signals, || {
+            std::fs::read_to_string(out.join("updates.csv")).is_ok_and(|s| s.lines().count() >= 3)
+        })
+    }
+
+    /// The update of run `out`'s newest checkpoint, which must be its last logged update.
+    fn checkpointed_update(out: &Path) -> u64 {
+        let ck = Archive::load(&newest(out)).unwrap();
+        let update: u64 = ck.meta_parse("update").unwrap();
+        let logged = read(&out.join("updates.csv")).lines().count() as u64 - 1;
+        assert!(
+            update >= 2 && update == logged,
+            "checkpoint {update}, logged {logged}"
+        );
+        update
+    }
+
+    #[test]
+    fn ctrl_c_checkpoints_and_the_run_resumes_from_there() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("run");
+        let out_s = out.to_str().unwrap();
+        let lock = common::gpu().0;
+        let o = train_until_signalled(&out, &[libc::SIGINT]);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(130), "{t}");
+        assert!(
+            t.contains("interrupted by SIGINT") && t.contains("--resume"),
+            "says how to continue: {t}"
+        );
+        let update = checkpointed_update(&out);
+        drop(lock);
+        let target = ((update + 2) * 8).to_string();
+        let o = bin(&["train", "--resume", out_s, "--steps", &target]);
+        assert!(o.status.success(), "{}", text(&o));
+        assert_eq!(
+            read(&out.join("updates.csv")).lines().count() as u64,
+            1 + update + 2
+        );
+    }
+
+    /// What Slurm's time limit, `timeout` and `docker stop` send: the same checkpoint as Ctrl-C,
+    /// status 143, and the resumed run ends as an uninterrupted one of the same length.
+    #[test]
+    fn sigterm_checkpoints_and_the_resumed_run_equals_an_uninterrupted_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+        let lock = common::gpu().0;
+        let o = train_until_signalled(&b, &[libc::SIGTERM]);
+        drop(lock);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(143), "{t}");
+        assert!(t.contains("SIGTERM: finishing this update"), "{t}");
+        let hint = format!(
+            "continue with `fluxswarm-gpu train --resume {}`",
+            b.display()
+        );
+        assert!(
+            t.contains("interrupted by SIGTERM") && t.contains(&hint),
+            "{t}"
+        );
+        assert_eq!(
+            String::from_utf8_lossy(&o.stdout).trim(),
+            b.to_str().unwrap()
+        );
+        let update = checkpointed_update(&b);
+
+        // Two updates past the signal, against a run that went there in one go.
+        let target = ((update + 2) * 8).to_string();
+        let o = bin(&train_args(a.to_str().unwrap(), &target, &[]));
+        assert!(o.status.success(), "{}", text(&o));
+        let o = bin(&["train", "--resume", b.to_str().unwrap(), "--steps", &target]);
+        assert!(o.status.success(), "{}", text(&o));
+        assert!(text(&o).contains(&format!("resuming {} at update {update}", b.display())));
+        assert_same_run(&a, &b, update + 2);
+    }
+
+    /// SIGHUP stops a run as SIGTERM does, with 129; under `nohup` it is ignored, so a SIGTERM
+    /// right after it is the first signal and stops the run cleanly (were SIGHUP handled, the
+    /// SIGTERM would be a second signal and stop it at once, with no checkpoint).
+    #[test]
+    fn sighup_stops_a_run_unless_nohup_ignores_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let lock = common::gpu().0;
+        let out = dir.path().join("hup");
+        let o = train_until_signalled(&out, &[libc::SIGHUP]);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(129), "{t}");
+        assert!(
+            t.contains("interrupted by SIGHUP") && t.contains("--resume"),
+            "{t}"
+        );
+        checkpointed_update(&out);
+
+        let out = dir.path().join("nohup");
+        let o = train_until_signalled_under(&["nohup"], &out, &[libc::SIGHUP, libc::SIGTERM]);
+        drop(lock);
+        let t = text(&o);
+        assert_eq!(o.status.code(), Some(143), "{t}");
+        assert!(
+            t.contains("interrupted by SIGTERM") && t.contains("--resume"),
+            "{t}"
+        );
+        assert!(!t.contains("SIGHUP"), "{t}");
+        checkpointed_update(&out);
+    }
+
+    /// A second signal while the first is being honoured stops at once, with no checkpoint.
+    #[test]
+    fn a_second_signal_stops_at_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("run");
+        let lock = common::gpu().0;
+        let o = train_until_signalled(&out, &[libc::SIGTERM, libc::SIGINT]);
+        drop(lock);
+        let t = text(&o);
+        // The status is that of the signal handled second (Linux handles pending signals lowest
+        // number first, so that may be either).
+        assert!(
+            matches!(o.status.code(), Some(130 | 143)),
+            "{:?}: {t}",
+            o.status
+        );
+        assert!(!t.contains("--resume"), "{t}");
+        assert!(checkpoint::list(&out.join("checkpoints")).is_empty(), "{t}");
+    }
 }
 
 #[test]

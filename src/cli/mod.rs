@@ -1,4 +1,5 @@
-//! Command-line interface: clap subcommands, each calling its module's `run`.
+//! Command-line interface: clap subcommands, each calling its module's `run`; `common`,
+//! `progress` and `signals` are shared by them.
 
 mod bench;
 mod bench_cpu;
@@ -6,8 +7,10 @@ mod common;
 mod eval;
 mod info;
 mod map;
+mod progress;
 mod report;
 mod rollout;
+mod signals;
 mod simulate;
 mod train;
 

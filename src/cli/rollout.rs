@@ -24,7 +24,6 @@ use fluxswarm_gpu::output::episodes::EpisodesCsv;
 use fluxswarm_gpu::output::frame::{self, MemberMark};
 use fluxswarm_gpu::output::run_dir;
 use fluxswarm_gpu::rng::Rng;
-use indicatif::{ProgressBar, ProgressStyle};
 
 use super::common::ConfigArgs;
 
@@ -306,15 +305,13 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
     }
     let frame_due =
         |step: u32| args.frames_every > 0 && (step as u64).is_multiple_of(args.frames_every);
-    let bar = ProgressBar::new(args.episodes);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} episodes  {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let stop = super::signals::Stop::install("stopping after this step, keeping what was written");
+    let mut bar = super::progress::Progress::new("rollout", "episodes", args.episodes, 0);
+    let mut last = String::new();
     let mut finished = 0u64;
     let mut steps_total = 0u64;
     let start = std::time::Instant::now();
-    while finished < args.episodes {
+    while finished < args.episodes && !stop.requested() {
         let actions = policy.act_all(&obs, &env)?;
         // Inlet velocity at the end of this step, taken before any environment resets.
         let inlet_after: Vec<f64> = (0..args.envs)
@@ -348,17 +345,17 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
                 counted[e] += 1;
                 finished += 1;
                 episodes_csv.write(0, s)?;
-                bar.inc(1);
-                bar.set_message(format!(
-                    "last: env {e} {} after {} steps, progress {:.2}",
+                last = format!(
+                    "; last: env {e} {} after {} steps, progress {:.2}",
                     s.outcome, s.steps, s.progress
-                ));
+                );
                 if counted[e] < quota[e] {
                     start_episode(&mut traces, &mut starts_csv, &env, e, step.episode[e] + 1)?;
                 }
             }
         }
         obs = step.transition.obs;
+        bar.set(finished, format!("{steps_total} env steps{last}"));
     }
     bar.finish();
     starts_csv.flush()?;
@@ -371,6 +368,10 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
         "{finished} episodes, {steps_total} environment steps in {wall:.1} s ({:.2} env steps/s)",
         steps_total as f64 / wall
     );
+    if let Some(signal) = stop.signal().filter(|_| finished < args.episodes) {
+        let what = format!("{finished} of {} episodes written", args.episodes);
+        super::signals::exit_stopped(signal, &what, &out);
+    }
     if args.gif {
         super::common::write_gif(&out, "env0_")?;
     }

@@ -11,7 +11,6 @@ use fluxswarm_gpu::config::Resolved;
 use fluxswarm_gpu::output::frame::MemberMark;
 use fluxswarm_gpu::output::{frame, npy, run_dir};
 use fluxswarm_gpu::sim::{EnvHealth, FlowBatch, fluid::PRESSURE_ITERATIONS_PER_SUBSTEP};
-use indicatif::{ProgressBar, ProgressStyle};
 
 use super::common::ConfigArgs;
 
@@ -103,13 +102,11 @@ pub fn run(mut args: SimulateArgs) -> anyhow::Result<()> {
     let health = batch.health()?;
     writer.record(batch.as_ref(), 0, &health[args.env])?;
 
-    let bar = ProgressBar::new(steps);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} steps  {msg}  eta {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let stop = super::signals::Stop::install("stopping after this step, keeping what was written");
+    let mut bar = super::progress::Progress::new("simulate", "steps", steps, 0);
     let start = Instant::now();
-    for step in 1..=steps {
+    let mut done = 0;
+    for step in (1..=steps).take_while(|_| !stop.requested()) {
         let health = batch.step()?;
         writer.record(batch.as_ref(), step, &health[args.env])?;
         for (e, h) in health.iter().enumerate() {
@@ -126,19 +123,21 @@ pub fn run(mut args: SimulateArgs) -> anyhow::Result<()> {
             }
         }
         let sim_s = step as f64 * resolved.config.time.control_dt_s;
-        bar.set_message(format!(
-            "{:.4} sim-s/s",
-            sim_s / start.elapsed().as_secs_f64()
-        ));
-        bar.inc(1);
+        let rate = sim_s / start.elapsed().as_secs_f64();
+        bar.set(step, format!("{rate:.4} sim-s/s"));
+        done = step;
     }
     bar.finish();
     writer.finish()?;
     let wall = start.elapsed().as_secs_f64();
     log::info!(
-        "{steps} control steps in {wall:.1} s: {:.2} environment steps/s",
-        (steps as f64 * args.envs as f64) / wall
+        "{done} control steps in {wall:.1} s: {:.2} environment steps/s",
+        (done as f64 * args.envs as f64) / wall
     );
+    if let Some(signal) = stop.signal().filter(|_| done < steps) {
+        let what = format!("{done} of {steps} control steps written");
+        super::signals::exit_stopped(signal, &what, &out);
+    }
     if args.gif {
         super::common::write_gif(&out, &format!("env{}_s", args.env))?;
     }

@@ -2,16 +2,18 @@
 //! `config.toml` (the resolved configuration, headed by the seed, batch, adapter and version as
 //! comments, so it loads back with `--config`), `episodes.csv` and `updates.csv` (SPEC section
 //! 7), a TensorBoard event file of the same scalars, and `checkpoints/update-NNNNNNN.safetensors`
-//! (every K updates, at the end and on Ctrl-C; the newest three are kept). A checkpoint holds
+//! (every K updates, at the end and on a signal; the newest three are kept). A checkpoint holds
 //! the learner, the environments and the run's counters, including how many bytes of each log
 //! belong to it, so `--resume DIR` cuts the logs back to that point and continues exactly as
 //! the uninterrupted run would have (same adapter).
+//!
+//! SIGINT (Ctrl-C), SIGTERM and SIGHUP (`signals`) finish the update in hand, write a
+//! checkpoint, print the `--resume` command and exit with 130, 143 or 129; progress goes to
+//! stderr (`progress`: a bar on a terminal, plain lines elsewhere).
 
 use std::collections::VecDeque;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, bail};
 use clap::Args;
@@ -23,9 +25,10 @@ use fluxswarm_gpu::learn::mappo::{Iteration, Learner, TrainConfig};
 use fluxswarm_gpu::output::episodes::EpisodesCsv;
 use fluxswarm_gpu::output::run_dir;
 use fluxswarm_gpu::output::tensorboard::EventWriter;
-use indicatif::{ProgressBar, ProgressStyle};
 
 use super::common::ConfigArgs;
+use super::progress::Progress as Bar;
+use super::signals::{self, Stop};
 
 #[derive(Debug, Args)]
 pub struct TrainArgs {
@@ -52,7 +55,8 @@ pub struct TrainArgs {
     /// environments; only --steps and --adapter may be given with it).
     #[arg(long, value_name = "DIR")]
     pub resume: Option<PathBuf>,
-    /// Write a checkpoint every K updates (and always at the end and on Ctrl-C).
+    /// Write a checkpoint every K updates (and always at the end and on Ctrl-C, SIGTERM or
+    /// SIGHUP).
     #[arg(long, default_value_t = 25, value_name = "K")]
     pub checkpoint_every: u64,
 }
@@ -144,33 +148,11 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
         }
     };
 
-    let interrupted = Arc::new(AtomicBool::new(false));
-    {
-        let flag = interrupted.clone();
-        let set = ctrlc::set_handler(move || {
-            if flag.swap(true, Ordering::SeqCst) {
-                eprintln!("\nsecond Ctrl-C: stopping without a checkpoint");
-                std::process::exit(130);
-            }
-            eprintln!(
-                "\nCtrl-C: finishing this update, then writing a checkpoint (Ctrl-C again to stop at once)"
-            );
-        });
-        if let Err(e) = set {
-            log::warn!("Ctrl-C will not write a checkpoint: {e}");
-        }
-    }
-
-    let bar = ProgressBar::new(plan.steps);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:30} {pos}/{len} steps  {per_sec}  eta {eta}  {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar.set_position(progress.global.min(plan.steps));
-    bar.reset_eta();
+    let stop = Stop::install("finishing this update, then writing a checkpoint");
+    let mut bar = Bar::new("train", "steps", plan.steps, progress.global);
     let mut recent: VecDeque<(bool, [f64; 3])> = VecDeque::new();
     let mut saved_at = progress.update;
-    while progress.global < plan.steps && !interrupted.load(Ordering::SeqCst) {
+    while progress.global < plan.steps && !stop.requested() {
         let it = learner.iterate(&mut env, &mut obs)?;
         progress.global += it.env_steps as u64;
         progress.update += 1;
@@ -186,21 +168,22 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
                 recent.pop_front();
             }
         }
+        let mut msg = format!("update {}", progress.update);
         if !recent.is_empty() {
             let n = recent.len() as f64;
             let success = recent.iter().filter(|r| r.0).count() as f64 / n;
             let m = recent.iter().fold([0.0; 3], |a, r| {
                 [a[0] + r.1[0] / n, a[1] + r.1[1] / n, a[2] + r.1[2] / n]
             });
-            bar.set_message(format!(
-                "success {:.0}%  progress {:.1} energy {:.2} smoothness {:.2}",
+            msg += &format!(
+                "  success {:.0}%  progress {:.1} energy {:.2} smoothness {:.2}",
                 100.0 * success,
                 m[0],
                 m[1],
                 m[2]
-            ));
+            );
         }
-        bar.set_position(progress.global.min(plan.steps));
+        bar.set(progress.global, msg);
         if progress.update.is_multiple_of(args.checkpoint_every) {
             save(&ck_dir, &plan, &progress, &mut logs, &learner, &env, &obs)?;
             saved_at = progress.update;
@@ -218,14 +201,17 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
         progress.learn_s,
         100.0 * progress.learn_s / (progress.sim_s + progress.learn_s).max(1e-9)
     );
-    if interrupted.load(Ordering::SeqCst) {
-        eprintln!(
-            "interrupted after update {}: continue with `fluxswarm-gpu train --resume {}`",
-            progress.update,
-            plan.out.display()
+    // A signal during the last update stops nothing: the run is complete.
+    if let Some(signal) = stop.signal().filter(|_| progress.global < plan.steps) {
+        signals::exit_stopped(
+            signal,
+            &format!(
+                "checkpoint of update {} written; continue with `fluxswarm-gpu train --resume {}`",
+                progress.update,
+                plan.out.display()
+            ),
+            &plan.out,
         );
-        println!("{}", plan.out.display());
-        std::process::exit(130);
     }
     println!("{}", plan.out.display());
     Ok(())

@@ -1,6 +1,7 @@
 //! Running the binary as a user does, and the small configurations the CLI tests share.
 
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output};
+use std::time::{Duration, Instant};
 
 pub fn bin(args: &[&str]) -> Output {
     bin_env(args, &[])
@@ -23,6 +24,63 @@ pub const NO_ADAPTER: &[(&str, &str)] = &[
     ("VK_ICD_FILENAMES", "/nonexistent/icd.json"),
     ("WGPU_BACKEND", "vulkan"),
 ];
+
+/// Sends `signals` (e.g. `libc::SIGTERM`), one right after the other, to `child` (spawned with
+/// piped stdout and stderr) once `ready()` holds, and returns what it printed and its status.
+/// Guards, not timed assertions: a child that is not ready within 10 minutes or still runs 10
+/// minutes after the signals is killed and the test fails.
+#[cfg(unix)]
+pub fn signal_after(mut child: Child, signals: &[i32], ready: impl Fn() -> bool) -> Output {
+    use std::io::Read;
+    const GUARD: Duration = Duration::from_secs(600);
+    let drain = |pipe: Option<Box<dyn Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut bytes = Vec::new();
+            if let Some(mut p) = pipe {
+                let _ = p.read_to_end(&mut bytes);
+            }
+            bytes
+        })
+    };
+    let stdout = drain(child.stdout.take().map(|p| Box::new(p) as _));
+    let stderr = drain(child.stderr.take().map(|p| Box::new(p) as _));
+    let collect = |mut child: Child, status: Option<std::process::ExitStatus>| {
+        let status = status.unwrap_or_else(|| {
+            let _ = child.kill();
+            child.wait().unwrap()
+        });
+        Output {
+            status,
+            stdout: stdout.join().unwrap(),
+            stderr: stderr.join().unwrap(),
+        }
+    };
+    let start = Instant::now();
+    while !ready() {
+        let exited = child.try_wait().unwrap();
+        if exited.is_some() || start.elapsed() > GUARD {
+            let o = collect(child, exited);
+            panic!("not ready for the signal ({:?}): {}", o.status, text(&o));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let pid = child.id() as i32;
+    for &s in signals {
+        // SAFETY: kill(2) only sends a signal, to the child this test started and still holds.
+        assert_eq!(unsafe { libc::kill(pid, s) }, 0, "kill {pid} {s}");
+    }
+    let start = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return collect(child, Some(status));
+        }
+        if start.elapsed() > GUARD {
+            let o = collect(child, None);
+            panic!("still running 10 minutes after the signal: {}", text(&o));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
 
 pub fn text(o: &Output) -> String {
     format!(

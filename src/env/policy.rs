@@ -31,10 +31,10 @@ impl Scripted {
     /// The parameters `scripted` runs with: the best of the direct search in
     /// docs/experiments.md ("The scripted controller"), on training seeds only.
     pub const TUNED: Scripted = Scripted {
-        calm_deg: 30.0,
-        storm_deg: 75.0,
-        storm_start_s: 0.95,
-        storm_end_s: 0.2,
+        calm_deg: 40.0,
+        storm_deg: 60.0,
+        storm_start_s: 0.9,
+        storm_end_s: 0.15,
     };
 
     /// Whether the waveform time `t_s` (s since phase 0) falls in the storm window.

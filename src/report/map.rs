@@ -7,7 +7,9 @@
 //!   (p + z^2/2n -+ z sqrt(p(1-p)/n + z^2/4n^2)) / (1 + z^2/n), z = 1.96, overall and
 //!   stratified by start phase: a systole start has its phase in [0, systole_end_s);
 //! - the mean time to success (s), the median episode length in waveform cycles ("cycles
-//!   survived") and the mean net upstream speed (start x_COM - final x_COM) / cycles, mm/cycle.
+//!   survived") and the net upstream speed over all its simulated time,
+//!   sum (start x_COM - final x_COM) / sum cycles, in mm per cycle (pooled, so that short
+//!   failures do not dominate as a mean of per-episode ratios would).
 //!
 //! Wall-drag probes (`DIR/wall_drag/*`, a rollout of one member pinned at the lower wall with
 //! zero thrust for one cycle) give the dimensionless axes: F_max / max_t F_x(t) and the fraction
@@ -208,10 +210,8 @@ impl MapRun {
             .collect();
         let mut lengths: Vec<f64> = es.iter().map(cycles).collect();
         lengths.sort_by(f64::total_cmp);
-        let upstream: Vec<f64> = es
-            .iter()
-            .map(|e| (e.start_x_com_mm - e.final_x_com_mm) / cycles(e))
-            .collect();
+        let moved: f64 = es.iter().map(|e| e.start_x_com_mm - e.final_x_com_mm).sum();
+        let simulated: f64 = es.iter().map(cycles).sum();
         Cell {
             scale: self.scale,
             peak_inlet_m_s: self.peak_inlet_m_s,
@@ -224,7 +224,11 @@ impl MapRun {
             timeouts: es.iter().filter(|e| e.outcome == "timeout").count(),
             mean_success_time_s: mean(&times),
             median_cycles: median(&lengths),
-            upstream_mm_per_cycle: mean(&upstream),
+            upstream_mm_per_cycle: if simulated > 0.0 {
+                moved / simulated
+            } else {
+                f64::NAN
+            },
         }
     }
 }
@@ -383,10 +387,10 @@ mod tests {
             control_dt_s: 0.005,
             period_s: 1.0,
             episodes: vec![
-                ep(400, "success", 0.05, 50.0, 20.0), // systole start, 2 cycles, 15 mm/cycle
-                ep(100, "failure", 0.5, 50.0, 70.0),  // 0.5 cycles, -40 mm/cycle
-                ep(600, "success", 0.9, 50.0, 20.0),  // 3 cycles, 10 mm/cycle
-                ep(2000, "timeout", 0.1, 50.0, 40.0), // systole, 10 cycles, 1 mm/cycle
+                ep(400, "success", 0.05, 50.0, 20.0), // systole start, 2 cycles, +30 mm
+                ep(100, "failure", 0.5, 50.0, 70.0),  // 0.5 cycles, -20 mm
+                ep(600, "success", 0.9, 50.0, 20.0),  // 3 cycles, +30 mm
+                ep(2000, "timeout", 0.1, 50.0, 40.0), // systole, 10 cycles, +10 mm
             ],
         };
         let c = run.cell(0.15);
@@ -396,7 +400,8 @@ mod tests {
         assert_eq!((c.failures, c.timeouts), (1, 1));
         assert!((c.mean_success_time_s - 2.5).abs() < 1e-12);
         assert!((c.median_cycles - 2.5).abs() < 1e-12);
-        assert!((c.upstream_mm_per_cycle - (15.0 - 40.0 + 10.0 + 1.0) / 4.0).abs() < 1e-12);
+        // (30 - 20 + 30 + 10) mm over (2 + 0.5 + 3 + 10) cycles.
+        assert!((c.upstream_mm_per_cycle - 50.0 / 15.5).abs() < 1e-12);
     }
 
     #[test]

@@ -129,12 +129,14 @@ pub fn matmul_scaled(c: &mut [f32], a: Mat, b: Mat, accumulate: bool, scale: f32
     }
 }
 
-/// Fills each row of the row-major [rows, bias.len()] `c` with `bias` (the start of a layer's
-/// `x W^T + b`, accumulated onto by [`matmul`]).
-pub fn fill_rows(c: &mut [f32], bias: &[f32]) {
-    for row in c.chunks_exact_mut(bias.len()) {
-        row.copy_from_slice(bias);
+/// The row-major [rows, bias.len()] matrix whose every row is `bias` (the start of a layer's
+/// `x W^T + b`, accumulated onto by [`matmul`]), written once (not zeroed first).
+pub fn rows_of(bias: &[f32], rows: usize) -> Vec<f32> {
+    let mut c = Vec::with_capacity(rows * bias.len());
+    for _ in 0..rows {
+        c.extend_from_slice(bias);
     }
+    c
 }
 
 /// e^y for y in [-87, 88] (Cephes `expf`): n = round(y log2 e) by the 1.5 2^23 rounding trick,

@@ -13,6 +13,7 @@ pub mod dense;
 pub mod env;
 pub mod gae;
 pub mod gaussian;
+mod lanes;
 pub mod mappo;
 pub mod mlp;
 pub mod nets;

@@ -14,22 +14,39 @@ pub struct Surgery {
     pub conflicts: Vec<bool>,
 }
 
-/// a . b in f64, with eight partial sums so that the compiler vectorises it.
-pub(crate) fn dot(a: &[f32], b: &[f32]) -> f64 {
-    let mut acc = [0.0f64; 8];
-    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
-    let tail: f64 = ca
-        .remainder()
-        .iter()
-        .zip(cb.remainder())
-        .map(|(x, y)| *x as f64 * *y as f64)
-        .sum();
-    for (x, y) in ca.zip(cb) {
-        for l in 0..8 {
-            acc[l] += x[l] as f64 * y[l] as f64;
+pub(crate) use super::lanes::dot;
+
+/// The Gram matrix g_i . g_j of K gradients of one length, each entry exactly [`dot`]`(g_i,
+/// g_j)`; for three gradients (the learner's objectives) all six in one pass over the data.
+pub(crate) fn gram(grads: &[&[f32]]) -> Vec<Vec<f64>> {
+    let k = grads.len();
+    let mut g = vec![vec![0.0f64; k]; k];
+    if let [a, b, c] = grads {
+        let d = super::lanes::gram3(a, b, c);
+        for (d, (i, j)) in d
+            .into_iter()
+            .zip([(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)])
+        {
+            (g[i][j], g[j][i]) = (d, d);
+        }
+        return g;
+    }
+    for i in 0..k {
+        for j in i..k {
+            let d = dot(grads[i], grads[j]);
+            (g[i][j], g[j][i]) = (d, d);
         }
     }
-    acc.iter().sum::<f64>() + tail
+    g
+}
+
+/// What PCGrad decides from the Gram matrix: each original gradient's weight in the mean of
+/// the projected ones, and the diagnostics of [`Surgery`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    pub weight: Vec<f64>,
+    pub cosines: Vec<f32>,
+    pub conflicts: Vec<bool>,
 }
 
 /// PCGrad with `order[i]`: the objectives g_i is projected against, in that order.
@@ -38,19 +55,29 @@ pub(crate) fn dot(a: &[f32], b: &[f32]) -> f64 {
 /// p_i . g_j = sum_m a_im (g_m . g_j): the surgery runs on the Gram matrix of the K
 /// gradients (K(K+1)/2 dot products), and one pass forms the mean sum_m (mean_i a_im) g_m.
 pub fn pcgrad(grads: &[Vec<f32>], order: &[Vec<usize>]) -> Surgery {
+    let views: Vec<&[f32]> = grads.iter().map(|g| g.as_slice()).collect();
+    let plan = plan(&views, order);
+    let mut combined = vec![0.0f32; grads.first().map_or(0, |g| g.len())];
+    combine(&mut combined, &views, &plan.weight, None);
+    Surgery {
+        combined,
+        cosines: plan.cosines,
+        conflicts: plan.conflicts,
+    }
+}
+
+/// The [`Plan`] of PCGrad with `order` (see [`pcgrad`]) for gradients of one length.
+pub fn plan(grads: &[&[f32]], order: &[Vec<usize>]) -> Plan {
     let k = grads.len();
     assert!(
         k > 0 && order.len() == k,
         "one projection order per gradient"
     );
-    let len = grads[0].len();
-    let mut gram = vec![vec![0.0f64; k]; k];
-    for i in 0..k {
-        for j in i..k {
-            let d = dot(&grads[i], &grads[j]);
-            (gram[i][j], gram[j][i]) = (d, d);
-        }
-    }
+    assert!(
+        grads.iter().all(|g| g.len() == grads[0].len()),
+        "gradients of one length"
+    );
+    let gram = gram(grads);
     let mut weight = vec![0.0f64; k];
     for (i, others) in order.iter().enumerate() {
         let mut a = vec![0.0f64; k];
@@ -67,9 +94,6 @@ pub fn pcgrad(grads: &[Vec<f32>], order: &[Vec<usize>]) -> Surgery {
             *w += x / k as f64;
         }
     }
-    let combined = (0..len)
-        .map(|x| (0..k).map(|m| weight[m] * grads[m][x] as f64).sum::<f64>() as f32)
-        .collect();
     let (mut cosines, mut conflicts) = (Vec::new(), Vec::new());
     for i in 0..k {
         for j in i + 1..k {
@@ -82,11 +106,39 @@ pub fn pcgrad(grads: &[Vec<f32>], order: &[Vec<usize>]) -> Surgery {
             conflicts.push(gram[i][j] < 0.0);
         }
     }
-    Surgery {
-        combined,
+    Plan {
+        weight,
         cosines,
         conflicts,
     }
+}
+
+/// out = (sum_m weight_m g_m, summed in f64 in the order m = 0, 1, .., rounded to f32) + `extra`
+/// (where given, in f32), and returns out . out as [`dot`] sums it, in one pass.
+pub fn combine(out: &mut [f32], grads: &[&[f32]], weight: &[f64], extra: Option<&[f32]>) -> f64 {
+    let len = out.len();
+    assert!(
+        grads.len() == weight.len() && grads.iter().all(|g| g.len() == len),
+        "one weight per gradient, all of the output's length"
+    );
+    if let Some(e) = extra {
+        assert_eq!(e.len(), len, "the extra term has the output's length");
+    }
+    if let ([a, b, c], &[wa, wb, wc]) = (grads, weight) {
+        return super::lanes::combine3(out, [a, b, c], [wa, wb, wc], extra);
+    }
+    for (x, o) in out.iter_mut().enumerate() {
+        let s = grads
+            .iter()
+            .zip(weight)
+            .map(|(g, w)| w * g[x] as f64)
+            .sum::<f64>() as f32;
+        *o = match extra {
+            Some(e) => s + e[x],
+            None => s,
+        };
+    }
+    dot(out, out)
 }
 
 /// Plain average (the `--no-pcgrad` ablation), with the same diagnostics.
@@ -201,6 +253,55 @@ mod tests {
             let d = dot(&grads[0], &grads[1]);
             let want_cos = d / (dot(&grads[0], &grads[0]) * dot(&grads[1], &grads[1])).sqrt();
             assert!((s.cosines[0] as f64 - want_cos).abs() < 1e-6);
+        }
+    }
+
+    fn plain_dot(a: &[f32], b: &[f32]) -> f64 {
+        crate::learn::lanes::dot_on(crate::learn::lanes::Path::Plain, a, b)
+    }
+
+    #[test]
+    fn the_fused_passes_give_the_separate_passes_bits() {
+        // What the update did before the passes were fused: six dot products, the mean in
+        // f64 per element, the entropy term added in f32, then the squared norm.
+        let mut rng = crate::rng::Rng::new(6);
+        for len in [0usize, 5, 8, 1003, 4096 + 3] {
+            let mut noise = |s: f64| -> Vec<f32> {
+                (0..len)
+                    .map(|i| (s * rng.normal() * 10f64.powi((i % 7) as i32 - 3)) as f32)
+                    .collect()
+            };
+            let grads = [noise(1.0), noise(0.5), noise(2.0)];
+            let extra = noise(0.1);
+            let views: Vec<&[f32]> = grads.iter().map(|g| g.as_slice()).collect();
+            let g = gram(&views);
+            for i in 0..3 {
+                for j in 0..3 {
+                    assert_eq!(g[i][j].to_bits(), plain_dot(&grads[i], &grads[j]).to_bits());
+                }
+            }
+            let weight = [0.31f64, -0.07, 0.4];
+            let want: Vec<f32> = (0..len)
+                .map(|x| {
+                    let s = (0..3).map(|m| weight[m] * grads[m][x] as f64).sum::<f64>() as f32;
+                    s + extra[x]
+                })
+                .collect();
+            let want_sq = plain_dot(&want, &want);
+            let mut out = vec![0.0f32; len];
+            let got_sq = combine(&mut out, &views, &weight, Some(&extra));
+            let bits = |x: &[f32]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&out), bits(&want), "len {len}");
+            assert_eq!(got_sq.to_bits(), want_sq.to_bits(), "len {len}");
+            // Without the extra term, and the general path (two gradients).
+            let mut plain = vec![0.0f32; len];
+            combine(&mut plain, &views, &weight, None);
+            let want: Vec<f32> = (0..len)
+                .map(|x| (0..3).map(|m| weight[m] * grads[m][x] as f64).sum::<f64>() as f32)
+                .collect();
+            assert_eq!(bits(&plain), bits(&want));
+            let two = combine(&mut plain, &views[..2], &weight[..2], None);
+            assert_eq!(two.to_bits(), plain_dot(&plain, &plain).to_bits());
         }
     }
 }

@@ -30,7 +30,7 @@ use super::mlp::{self, Layout, actor::ActorActs};
 use super::nets::ActorPass;
 use super::nets::{Actor, Critic};
 use super::normalizer::ObsNormalizer;
-use super::pcgrad::{average, dot, pcgrad};
+use super::pcgrad::{combine, dot, plan};
 use super::ppo::clipped_surrogate_grad;
 #[cfg(test)]
 use super::surgery::flatten;
@@ -142,13 +142,11 @@ pub fn seed_parameters(map: &VarMap, rng: &mut Rng) -> candle_core::Result<()> {
     Ok(())
 }
 
-fn clip_norm(g: &mut [f32], max: f64) {
-    // Eight partial sums (the one sequential f64 sum was a fifth of the update at E = 4).
-    let norm = dot(g, g).sqrt();
-    if norm > max {
-        let s = (max / norm) as f32;
-        g.iter_mut().for_each(|x| *x *= s);
-    }
+/// The factor that clips a gradient of squared norm `norm_sq` to norm `max`, none where it is
+/// within (the gradient is then used as it is).
+fn clip_scale(norm_sq: f64, max: f64) -> Option<f32> {
+    let norm = norm_sq.sqrt();
+    (norm > max).then(|| (max / norm) as f32)
 }
 
 /// Threads of the learner's own pool: `FLUXSWARM_LEARNER_THREADS`, default 1; the matrix

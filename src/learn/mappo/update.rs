@@ -89,6 +89,7 @@ impl Learner {
         let mb = (samples / self.cfg.minibatches.max(1) as usize).max(1);
         let mut stats = UpdateStats::default();
         let mut count = 0.0;
+        let mut g_actor = vec![0.0f32; self.actor_p.len()];
         for _ in 0..self.cfg.epochs {
             let perm = self.rng.permutation(samples);
             for chunk in perm.chunks(mb) {
@@ -116,8 +117,9 @@ impl Learner {
                     d_lp.push(g);
                 }
                 let grads = self.actor_grads(&acts, &a_flat, &d_lp, b, n);
-                let surgery = if self.cfg.pcgrad {
-                    let order: Vec<Vec<usize>> = (0..3)
+                // PCGrad's random projection orders (none for the plain average).
+                let order: Vec<Vec<usize>> = if self.cfg.pcgrad {
+                    (0..3)
                         .map(|i| {
                             self.rng
                                 .permutation(3)
@@ -125,30 +127,34 @@ impl Learner {
                                 .filter(|&j| j != i)
                                 .collect()
                         })
-                        .collect();
-                    pcgrad(&grads.objectives, &order)
+                        .collect()
                 } else {
-                    average(&grads.objectives)
+                    vec![Vec::new(); 3]
                 };
-                let mut g: Vec<f32> = surgery
-                    .combined
-                    .iter()
-                    .zip(&grads.entropy_bonus)
-                    .map(|(a, b)| a + b)
-                    .collect();
-                clip_norm(&mut g, self.cfg.max_grad_norm);
-                self.opt_actor.step(&mut self.actor_p, &g);
+                let views: Vec<&[f32]> = grads.objectives.iter().map(|g| g.as_slice()).collect();
+                let surgery = plan(&views, &order);
+                // The combined gradient plus the entropy bonus's and its squared norm in one
+                // pass; Adam scales it as it reads it where the norm is clipped.
+                let norm_sq = combine(
+                    &mut g_actor,
+                    &views,
+                    &surgery.weight,
+                    Some(&grads.entropy_bonus),
+                );
+                let scale = clip_scale(norm_sq, self.cfg.max_grad_norm);
+                self.opt_actor
+                    .step_scaled(&mut self.actor_p, &g_actor, scale);
 
                 // The joint states are the same rows, [b, n d].
                 let c = mlp::critic::forward(&self.critic_layout, &self.critic_p, &x, b);
-                let (value_loss, mut gc) = mlp::critic::value_loss_grad(
+                let (value_loss, gc) = mlp::critic::value_loss_grad(
                     &self.critic_layout,
                     &self.critic_p,
                     &c,
                     &gather(returns, n * 3),
                 );
-                clip_norm(&mut gc, self.cfg.max_grad_norm);
-                self.opt_critic.step(&mut self.critic_p, &gc);
+                let scale = clip_scale(dot(&gc, &gc), self.cfg.max_grad_norm);
+                self.opt_critic.step_scaled(&mut self.critic_p, &gc, scale);
 
                 stats.value_loss += value_loss;
                 stats.entropy += grads.entropy;

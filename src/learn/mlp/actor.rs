@@ -95,7 +95,10 @@ pub fn backward(
             row[a + j] = d_log_std[i * a + j] * ((1.0 - s) * s * span);
         }
     }
-    let mut grads = vec![vec![0.0f32; layout.len()]; weights.losses];
+    // Zeroed vectors (`vec![v; k]` would copy the first k - 1 times).
+    let mut grads: Vec<Vec<f32>> = (0..weights.losses)
+        .map(|_| vec![0.0f32; layout.len()])
+        .collect();
     let (head, l2) = (layout.dense(p, "head"), layout.dense(p, "l2"));
     layer_grads(
         &d_out,

@@ -20,7 +20,7 @@
 pub mod actor;
 pub mod critic;
 
-use super::dense::{Mat, fill_rows, matmul, matmul_scaled, tanh_inplace};
+use super::dense::{Mat, matmul, matmul_scaled, rows_of, tanh_inplace};
 use std::ops::Range;
 
 /// Where each named parameter sits in a network's flat parameter vector (names in sorted
@@ -107,8 +107,7 @@ pub struct Dense<'a> {
 impl Dense<'_> {
     /// y = x W^T + b [R, out] for x [R, in], tanh'd if `tanh`.
     pub fn forward(&self, x: &[f32], rows: usize, tanh: bool) -> Vec<f32> {
-        let mut y = vec![0.0f32; rows * self.out];
-        fill_rows(&mut y, self.b);
+        let mut y = rows_of(self.b, rows);
         matmul(
             &mut y,
             Mat::new(x, rows, self.inp),
@@ -167,9 +166,13 @@ impl Weights<'_> {
 /// Per set u, over the m losses that use it (a pair whose weights are all zero adds nothing and
 /// is skipped), dW_k += dy_u^T diag(w[k, u, s(r)]) x: where one loss uses the set with the same
 /// weight for every sample, one matrix product straight into its gradient, scaled; otherwise
-/// the narrower of dy_u and x is weighted per loss and the m copies side by side make one
-/// product ([out, R] x [R, m in] or [m out, R] x [R, in]) whose blocks are added into the
-/// gradients. db_k += sum_s w[k, u, s] (the row sum of dy_u over sample s).
+/// the narrower of dy_u and x is weighted per loss (the m copies side by side in one scratch
+/// buffer) and each copy makes one product ([out, R] x [R, in]) accumulated straight into
+/// its loss's gradient. (This was one product m times as wide into a temporary, whose blocks
+/// were then added in: gemm forms each element as one chain of fused multiply-adds over the
+/// rows in order whatever the product's width, so into a gradient that is still zero there, as
+/// every objective's is in the learner, the two give the same bits; checked on training runs.)
+/// db_k += sum_s w[k, u, s] (the row sum of dy_u over sample s).
 pub fn layer_grads(
     dy: &[f32],
     x: &[f32],
@@ -194,10 +197,10 @@ pub fn layer_grads(
     assert_eq!(dy.len(), u * rows * out, "dy is [{u}, {rows}, out]");
     let n = rows / s;
     let (w_slot, b_slot) = slots;
-    // The m weighted copies of a [R, width] matrix side by side: [R, m width].
-    let side_by_side = |src: &[f32], width: usize, ws: &[&[f32]]| -> Vec<f32> {
+    // The m weighted copies of a [R, width] matrix side by side: [R, m width], every element
+    // of `dst` written.
+    let side_by_side = |src: &[f32], width: usize, ws: &[&[f32]], dst: &mut [f32]| {
         let m = ws.len();
-        let mut dst = vec![0.0f32; rows * m * width];
         for (r, (row, d)) in src
             .chunks_exact(width)
             .zip(dst.chunks_exact_mut(m * width))
@@ -209,7 +212,6 @@ pub fn layer_grads(
                 block.iter_mut().zip(row).for_each(|(d, v)| *d = c * v);
             }
         }
-        dst
     };
     for uu in 0..u {
         let dy_u = &dy[uu * rows * out..(uu + 1) * rows * out];
@@ -246,31 +248,47 @@ pub fn layer_grads(
             let (a, b) = (Mat::new(dy_u, rows, out).t(), Mat::new(x, rows, inp));
             matmul_scaled(dw, a, b, true, ws[0][0]);
         } else if inp <= out {
-            // [out, m in]: block j of each row is loss j's row of dW.
-            let xs = side_by_side(x, inp, &ws);
-            let mut tmp = vec![0.0f32; out * m * inp];
-            let a = Mat::new(dy_u, rows, out).t();
-            matmul(&mut tmp, a, Mat::new(&xs, rows, m * inp), false);
-            for (j, &kk) in users.iter().enumerate() {
-                let dw = &mut grads[kk][w_slot.clone()];
-                for (d, t) in dw.chunks_exact_mut(inp).zip(tmp.chunks_exact(m * inp)) {
-                    let block = &t[j * inp..(j + 1) * inp];
-                    d.iter_mut().zip(block).for_each(|(d, v)| *d += v);
+            // x weighted per loss, side by side [R, m in]; block j times dy_u^T is loss j's dW,
+            // accumulated straight into its gradient.
+            with_scratch(rows * m * inp, |xs| {
+                side_by_side(x, inp, &ws, xs);
+                let a = Mat::new(dy_u, rows, out).t();
+                for (j, &kk) in users.iter().enumerate() {
+                    let b = Mat::strided(&xs[j * inp..], rows, inp, m * inp, 1);
+                    matmul(&mut grads[kk][w_slot.clone()], a, b, true);
                 }
-            }
+            });
         } else {
-            // [m out, in]: rows j out .. (j + 1) out are loss j's dW.
-            let ds = side_by_side(dy_u, out, &ws);
-            let mut tmp = vec![0.0f32; m * out * inp];
-            let a = Mat::new(&ds, rows, m * out).t();
-            matmul(&mut tmp, a, Mat::new(x, rows, inp), false);
-            for (j, &kk) in users.iter().enumerate() {
-                let dw = &mut grads[kk][w_slot.clone()];
-                let block = &tmp[j * out * inp..(j + 1) * out * inp];
-                dw.iter_mut().zip(block).for_each(|(d, v)| *d += v);
-            }
+            // dy_u weighted per loss, side by side [R, m out]; block j transposed times x is
+            // loss j's dW.
+            with_scratch(rows * m * out, |ds| {
+                side_by_side(dy_u, out, &ws, ds);
+                let b = Mat::new(x, rows, inp);
+                for (j, &kk) in users.iter().enumerate() {
+                    let a = Mat::strided(&ds[j * out..], rows, out, m * out, 1).t();
+                    matmul(&mut grads[kk][w_slot.clone()], a, b, true);
+                }
+            });
         }
     }
+}
+
+thread_local! {
+    /// [`with_scratch`]'s buffer on this thread.
+    static SCRATCH: std::cell::RefCell<Vec<f32>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Runs `f` on a scratch buffer of `len` elements, kept per thread between calls (grown when
+/// needed, never cleared: it holds what the last call left), for a buffer that `f` writes in
+/// full before it reads it, so that each minibatch does not allocate and zero it again.
+fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [f32]) -> R) -> R {
+    SCRATCH.with(|cell| {
+        let mut buf = cell.borrow_mut();
+        if buf.len() < len {
+            buf.resize(len, 0.0);
+        }
+        f(&mut buf[..len])
+    })
 }
 
 /// The (weight, bias) ranges of layer `prefix` in `layout`.

@@ -271,3 +271,106 @@ fn report_refuses_what_it_cannot_use() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("no updates.csv"), "{err}");
 }
+
+/// A map rollout directory: `k` successes of `n` at one point, every episode starting at x_COM
+/// 50 mm and phase 0.5 s (a diastole start).
+fn map_dir(dir: &Path, policy: &str, scale: f64, thrust: f64, k: usize, n: usize) {
+    std::fs::create_dir_all(dir).unwrap();
+    let header = format!(
+        "# fluxswarm-gpu 0.1.0 rollout: policy {policy}, seed 1, 4 environments, {n} episodes, adapter CPU backend"
+    );
+    let sets = [
+        format!("inlet.scale={scale}"),
+        format!("swarm.max_thrust_n={thrust}"),
+    ];
+    let sets: Vec<&str> = sets.iter().map(String::as_str).collect();
+    std::fs::write(dir.join("config.toml"), config_text(&header, &sets)).unwrap();
+    let mut e = String::from(
+        "env,episode,steps,outcome,progress,energy,smoothness,progress_mean,energy_sum,smoothness_sum,scalar_return,final_x_com_mm\n",
+    );
+    let mut s = String::from("env,episode,start_phase_s,start_inlet_u_m_s,start_x_com_mm\n");
+    for ep in 0..n {
+        let (outcome, x) = if ep < k {
+            ("success", 20.0)
+        } else {
+            ("failure", 70.0)
+        };
+        e += &format!("0,{ep},200,{outcome},0,0,0,0,0,0,0,{x}\n");
+        s += &format!("0,{ep},0.5,0.008,50\n");
+    }
+    std::fs::write(dir.join("episodes.csv"), e).unwrap();
+    std::fs::write(dir.join("starts.csv"), s).unwrap();
+}
+
+#[test]
+fn map_writes_its_csvs_and_figures_from_rollout_directories() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = tmp.path().join("map");
+    for (scale, wall, scripted) in [(0.9, 3, 4), (1.0, 0, 2)] {
+        for thrust in [8.5e-7, 2.5e-6] {
+            let point = root.join(format!("s{scale}_f{thrust}"));
+            map_dir(&point.join("zero"), "zero", scale, thrust, 0, 4);
+            map_dir(&point.join("wall"), "wall", scale, thrust, wall, 4);
+            map_dir(
+                &point.join("scripted"),
+                "scripted",
+                scale,
+                thrust,
+                scripted,
+                4,
+            );
+        }
+    }
+    let out = tmp.path().join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_fluxswarm-gpu"))
+        .args([
+            "map",
+            root.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let points = std::fs::read_to_string(out.join("controllability_points.csv")).unwrap();
+    // Four points; at s = 0.9 wall (3/4) is the best constant and scripted (4/4) leads by 0.25.
+    assert_eq!(points.lines().count(), 1 + 4, "{points}");
+    let row = points
+        .lines()
+        .find(|l| l.starts_with("0.9,850.0,"))
+        .unwrap();
+    assert!(
+        row.contains(",wall,0.7500,") && row.ends_with(",1.0000,0.5101,1.0000,0.2500"),
+        "{row}"
+    );
+    let map = std::fs::read_to_string(out.join("controllability_map.csv")).unwrap();
+    assert_eq!(map.lines().count(), 1 + 12);
+    // Every start was a diastole start; 3 successes moved 30 mm, 1 failure -20 mm, in 4 cycles.
+    let wall = map
+        .lines()
+        .find(|l| l.starts_with("0.9,0.3600,850.0,wall,"))
+        .unwrap();
+    assert!(
+        wall.contains(",4,3,0.7500,") && wall.contains(",0,0,0.0000,1.0000,4,3,"),
+        "{wall}"
+    );
+    assert!(
+        wall.contains(",17.500,"),
+        "(90 - 20) mm over 4 cycles: {wall}"
+    );
+    for name in [
+        "controllability_map.png",
+        "controllability_map_gap.png",
+        "controllability_map_best_constant.png",
+    ] {
+        let img = image::open(out.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(img.width() >= 400 && img.height() >= 300, "{name}");
+    }
+    // No wall-drag probes: no dimensionless figure.
+    assert!(!out.join("controllability_map_dimensionless.png").exists());
+    let o = Command::new(env!("CARGO_BIN_EXE_fluxswarm-gpu"))
+        .args(["map", tmp.path().join("empty").to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+}

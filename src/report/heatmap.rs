@@ -61,6 +61,25 @@ impl Scale {
     }
 }
 
+type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+
+/// A white figure of `size` with `caption` in a 40 px strip at the bottom: (whole, body).
+fn captioned<'a>(
+    buf: &'a mut [u8],
+    size: (u32, u32),
+    caption: &str,
+) -> Result<(Area<'a>, Area<'a>), Box<dyn std::error::Error>> {
+    let root = BitMapBackend::with_buffer(buf, size).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (body, foot) = root.split_vertically(size.1 - 40);
+    foot.draw(&Text::new(
+        caption.to_string(),
+        (10, 10),
+        ("sans-serif", 15).into_font(),
+    ))?;
+    Ok((root, body))
+}
+
 /// Writes `panels` in a grid of `columns` columns to `path`.
 pub fn save(
     path: &Path,
@@ -89,14 +108,7 @@ fn draw(
     scale: Scale,
     caption: &str,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    let root = BitMapBackend::with_buffer(buf, size).into_drawing_area();
-    root.fill(&WHITE)?;
-    let (body, foot) = root.split_vertically(size.1 - 40);
-    foot.draw(&Text::new(
-        caption.to_string(),
-        (10, 10),
-        ("sans-serif", 15).into_font(),
-    ))?;
+    let (root, body) = captioned(buf, size, caption)?;
     let areas = body.split_evenly((rows, columns));
     let (nx, ny) = (axes.x_labels.len(), axes.y_labels.len());
     for (panel, area) in panels.iter().zip(&areas) {
@@ -176,14 +188,7 @@ fn draw_scatter(
     scale: Scale,
     caption: &str,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    let root = BitMapBackend::with_buffer(buf, size).into_drawing_area();
-    root.fill(&WHITE)?;
-    let (body, foot) = root.split_vertically(size.1 - 40);
-    foot.draw(&Text::new(
-        caption.to_string(),
-        (10, 10),
-        ("sans-serif", 15).into_font(),
-    ))?;
+    let (root, body) = captioned(buf, size, caption)?;
     let xs = panels.iter().flat_map(|p| p.points.iter().map(|q| q.0));
     let (lo, hi) = xs
         .filter(|x| x.is_finite() && *x > 0.0)

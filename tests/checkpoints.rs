@@ -161,6 +161,7 @@ mod signalled {
         args[8] = "1000"; // --checkpoint-every: only the signal writes one
         let bin = env!("CARGO_BIN_EXE_fluxswarm-gpu");
         let mut cmd = Command::new(wrapper.first().copied().unwrap_or(bin));
+        common::cli::default_sighup(&mut cmd);
         if !wrapper.is_empty() {
             cmd.args(&wrapper[1..]).arg(bin);
         }

@@ -25,6 +25,21 @@ pub const NO_ADAPTER: &[(&str, &str)] = &[
     ("WGPU_BACKEND", "vulkan"),
 ];
 
+/// Restores SIGHUP's default action in the child `cmd` starts. A test run under `nohup` (or
+/// anything else that ignores SIGHUP) would otherwise hand the child an ignored SIGHUP, which
+/// the binary then leaves alone by design, and a test of SIGHUP would wait for nothing.
+#[cfg(unix)]
+pub fn default_sighup(cmd: &mut Command) -> &mut Command {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: signal(2) is async-signal-safe, and this runs in the forked child before exec.
+    unsafe {
+        cmd.pre_exec(|| {
+            libc::signal(libc::SIGHUP, libc::SIG_DFL);
+            Ok(())
+        })
+    }
+}
+
 /// Sends `signals` (e.g. `libc::SIGTERM`), one right after the other, to `child` (spawned with
 /// piped stdout and stderr) once `ready()` holds, and returns what it printed and its status.
 /// Guards, not timed assertions: a child that is not ready within 10 minutes or still runs 10

@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, anyhow, bail};
 
 use super::data::Csv;
-use super::stats::wilson95;
+use super::stats::{mean_std, wilson95};
 
 /// One episode of a map run: `episodes.csv` joined with `starts.csv` on (env, episode).
 #[derive(Debug, Clone, PartialEq)]
@@ -105,12 +105,29 @@ fn number(value: &toml::Value, section: &str, key: &str, path: &Path) -> anyhow:
         .ok_or_else(|| anyhow!("{} has no number {section}.{key}", path.display()))
 }
 
+/// A run directory's config.toml: its path, its text (the header is the first line) and its
+/// parsed values.
+fn read_config(dir: &Path) -> anyhow::Result<(PathBuf, String, toml::Value)> {
+    let path = dir.join("config.toml");
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let value = toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+    Ok((path, text, value))
+}
+
+/// `inlet.scale`, 1 when absent (configurations saved before the key existed).
+fn inlet_scale(value: &toml::Value) -> f64 {
+    value
+        .get("inlet")
+        .and_then(|s| s.get("scale"))
+        .and_then(toml::Value::as_float)
+        .unwrap_or(1.0)
+}
+
 impl MapRun {
     /// Reads a rollout directory written with `starts.csv` (this version's `rollout`).
     pub fn read(dir: &Path) -> anyhow::Result<Self> {
-        let path = dir.join("config.toml");
-        let text = std::fs::read_to_string(&path)
-            .with_context(|| format!("reading {}", path.display()))?;
+        let (path, text, value) = read_config(dir)?;
         let header = text.lines().next().unwrap_or("");
         // Commas would split the policy's CSV field (older scripted:A,B,C,D names).
         let policy = header_policy(header)
@@ -121,13 +138,7 @@ impl MapRun {
                     path.display()
                 )
             })?;
-        let value: toml::Value =
-            toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
-        let scale = value
-            .get("inlet")
-            .and_then(|s| s.get("scale"))
-            .and_then(toml::Value::as_float)
-            .unwrap_or(1.0);
+        let scale = inlet_scale(&value);
         let peak = value
             .get("inlet")
             .and_then(|s| s.get("points"))
@@ -222,7 +233,7 @@ impl MapRun {
             diastole: rate(&|e| !systole(e)),
             failures: es.iter().filter(|e| e.outcome == "failure").count(),
             timeouts: es.iter().filter(|e| e.outcome == "timeout").count(),
-            mean_success_time_s: mean(&times),
+            mean_success_time_s: mean_std(&times).0,
             median_cycles: median(&lengths),
             upstream_mm_per_cycle: if simulated > 0.0 {
                 moved / simulated
@@ -230,14 +241,6 @@ impl MapRun {
                 f64::NAN
             },
         }
-    }
-}
-
-fn mean(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        f64::NAN
-    } else {
-        v.iter().sum::<f64>() / v.len() as f64
     }
 }
 
@@ -261,21 +264,7 @@ pub struct WallDrag {
 impl WallDrag {
     /// Reads a probe directory (`trajectories.csv` of member 0, steps 1 and later).
     pub fn read(dir: &Path) -> anyhow::Result<Self> {
-        let run = MapRun::read(dir).ok();
-        let scale = match run {
-            Some(r) => r.scale,
-            None => {
-                let path = dir.join("config.toml");
-                let text = std::fs::read_to_string(&path)
-                    .with_context(|| format!("reading {}", path.display()))?;
-                let value: toml::Value = toml::from_str(&text)?;
-                value
-                    .get("inlet")
-                    .and_then(|s| s.get("scale"))
-                    .and_then(toml::Value::as_float)
-                    .unwrap_or(1.0)
-            }
-        };
+        let scale = inlet_scale(&read_config(dir)?.2);
         let t = Csv::read(&dir.join("trajectories.csv"))?;
         let (step, member) = (t.column::<u64>("step")?, t.column::<u64>("member")?);
         let (h, d) = (

@@ -7,7 +7,8 @@
 //! (the swarm environments), `report`, `output` -> `sim` (the batched flow: trait
 //! `FlowBatch`, `CpuBatch`, `GpuBatch`) -> `gpu` (adapter, kernels), with `config`,
 //! `waveform`, `checkpoint`, `rng`, `tuning` and `roofline` (this machine's measured peaks)
-//! beside them; `testing` is test-only.
+//! beside them; `sweep` (many runs of a command, locally or on Slurm) knows only `config`;
+//! `testing` is test-only.
 
 pub mod checkpoint;
 pub mod config;
@@ -19,6 +20,7 @@ pub mod report;
 pub mod rng;
 pub mod roofline;
 pub mod sim;
+pub mod sweep;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;
 pub mod tuning;

@@ -19,6 +19,9 @@ fn main() -> ExitCode {
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
+            if let Some(stopped) = e.downcast_ref::<cli::Stopped>() {
+                return ExitCode::from(stopped.report() as u8);
+            }
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
         }

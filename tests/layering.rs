@@ -21,6 +21,10 @@ const RULES: &[(&str, &[&str])] = &[
     ("env", &["report", "output", "cli"]),
     ("output", &["cli", "report"]),
     ("report", &["cli", "sim", "gpu"]),
+    (
+        "sweep",
+        &["cli", "sim", "gpu", "env", "learn", "report", "testing"],
+    ),
 ];
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {

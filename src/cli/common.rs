@@ -37,9 +37,7 @@ pub fn runs_on(opened: &Opened) -> String {
     format!("{}; {}", opened.batch.describe(), opened.why)
 }
 
-/// Keys a run saved with its checkpoint may still change: how the control step runs, not what
-/// it computes (the backends agree within the kernel tests' tolerance).
-pub const RUN_KEYS: [&str; 2] = ["solver.backend", "solver.pressure_sweep"];
+pub use fluxswarm_gpu::config::RUN_KEYS;
 
 /// Applies `--set` overrides of [`RUN_KEYS`] to a saved configuration (a resumed run, a
 /// trained policy); any other key is an error that says why.

@@ -12,9 +12,12 @@ mod report;
 mod rollout;
 mod signals;
 mod simulate;
+mod sweep;
 mod train;
 
 use clap::{Parser, Subcommand};
+
+pub use signals::Stopped;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -45,6 +48,9 @@ pub enum Command {
     Report(report::ReportArgs),
     /// The controllability map (map.csv, points.csv, heatmaps) from a directory of rollouts.
     Map(map::MapArgs),
+    /// Many runs of train, rollout or eval over a grid of overrides and seeds: a local pool or
+    /// a Slurm job array, resumable (SPEC section 8).
+    Sweep(sweep::SweepArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -57,5 +63,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Eval(a) => eval::run(a),
         Command::Report(a) => report::run(a),
         Command::Map(a) => map::run(a),
+        Command::Sweep(a) => sweep::run(a),
     }
 }

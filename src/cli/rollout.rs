@@ -370,7 +370,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
     );
     if let Some(signal) = stop.signal().filter(|_| finished < args.episodes) {
         let what = format!("{finished} of {} episodes written", args.episodes);
-        super::signals::exit_stopped(signal, &what, &out);
+        return Err(super::signals::Stopped::new(signal, &what, &out).into());
     }
     if args.gif {
         super::common::write_gif(&out, "env0_")?;

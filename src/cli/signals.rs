@@ -122,17 +122,42 @@ impl Stop {
     }
 }
 
-/// Says, on stderr, that `signal` stopped the command, prints the output directory on stdout
-/// (as a finished command does) and exits with the signal's status. Failed writes are ignored:
-/// after SIGHUP the terminal may be gone, and the status must still be the signal's.
-pub fn exit_stopped(signal: Signal, what: &str, out: &Path) -> ! {
-    let _ = writeln!(
-        std::io::stderr(),
-        "interrupted by {}: {what}",
-        signal.name()
-    );
-    let _ = writeln!(std::io::stdout(), "{}", out.display());
-    std::process::exit(signal.exit_code())
+/// A command that a signal stopped cleanly, returned as its error so that a caller running
+/// it in-process (a sweep task) can record the stop; `main` reports it with [`Stopped::report`]
+/// and exits with the signal's status.
+#[derive(Debug)]
+pub struct Stopped {
+    pub signal: Signal,
+    /// What was kept ("checkpoint of update 7 written; continue with ...").
+    pub what: String,
+    pub out: std::path::PathBuf,
+}
+
+impl std::fmt::Display for Stopped {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "interrupted by {}: {}", self.signal.name(), self.what)
+    }
+}
+
+impl std::error::Error for Stopped {}
+
+impl Stopped {
+    pub fn new(signal: Signal, what: &str, out: &Path) -> Stopped {
+        Stopped {
+            signal,
+            what: what.into(),
+            out: out.to_path_buf(),
+        }
+    }
+
+    /// Says, on stderr, that the signal stopped the command and prints the output directory on
+    /// stdout (as a finished command does). Failed writes are ignored: after SIGHUP the
+    /// terminal may be gone, and the status must still be the signal's.
+    pub fn report(&self) -> i32 {
+        let _ = writeln!(std::io::stderr(), "{self}");
+        let _ = writeln!(std::io::stdout(), "{}", self.out.display());
+        self.signal.exit_code()
+    }
 }
 
 /// Whether `signal` is ignored (`nohup` ignores SIGHUP), so that installing a handler would

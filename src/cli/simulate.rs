@@ -136,7 +136,7 @@ pub fn run(mut args: SimulateArgs) -> anyhow::Result<()> {
     );
     if let Some(signal) = stop.signal().filter(|_| done < steps) {
         let what = format!("{done} of {steps} control steps written");
-        super::signals::exit_stopped(signal, &what, &out);
+        return Err(super::signals::Stopped::new(signal, &what, &out).into());
     }
     if args.gif {
         super::common::write_gif(&out, &format!("env{}_s", args.env))?;

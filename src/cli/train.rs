@@ -203,7 +203,7 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
     );
     // A signal during the last update stops nothing: the run is complete.
     if let Some(signal) = stop.signal().filter(|_| progress.global < plan.steps) {
-        signals::exit_stopped(
+        return Err(signals::Stopped::new(
             signal,
             &format!(
                 "checkpoint of update {} written; continue with `fluxswarm-gpu train --resume {}`",
@@ -211,7 +211,8 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
                 plan.out.display()
             ),
             &plan.out,
-        );
+        )
+        .into());
     }
     println!("{}", plan.out.display());
     Ok(())

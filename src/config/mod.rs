@@ -19,6 +19,10 @@ use thiserror::Error;
 use crate::waveform::{Waveform, WaveformError};
 
 /// The paper's setup, embedded.
+/// Keys a run saved with its checkpoint may still change: how the control step runs, not what
+/// it computes (the backends agree within the kernel tests' tolerance).
+pub const RUN_KEYS: [&str; 2] = ["solver.backend", "solver.pressure_sweep"];
+
 pub const PAPER_TOML: &str = include_str!("../../configs/paper.toml");
 
 /// Largest explicit-diffusion number nu dt (1/dx^2 + 1/dy^2) / 2 accepted (FTCS stability).

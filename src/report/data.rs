@@ -305,7 +305,8 @@ impl RolloutRun {
     }
 }
 
-fn read_episodes(path: &Path, global_step: bool) -> anyhow::Result<Vec<Episode>> {
+/// The rows of an `episodes.csv` (`global_step`: the file is a train run's, which has it).
+pub fn read_episodes(path: &Path, global_step: bool) -> anyhow::Result<Vec<Episode>> {
     let c = Csv::read(path)?;
     let global: Vec<u64> = if global_step {
         c.column("global_step")?

@@ -20,6 +20,7 @@ pub mod map_output;
 pub mod markdown;
 pub mod plot;
 pub mod stats;
+pub mod sweep;
 
 use std::path::{Path, PathBuf};
 

@@ -279,3 +279,37 @@ fn bad_swarms() {
     )
     .unwrap();
 }
+
+#[test]
+fn objective_weights_need_the_averaged_gradient_and_sensible_values() {
+    let m = err(&["train.objective_weights=[9.0, 1.0, 1.0]"]);
+    assert_contains(
+        &m,
+        &[
+            "train.objective_weights",
+            "train.pcgrad = false",
+            "--no-pcgrad",
+        ],
+    );
+    let m = err(&[
+        "train.pcgrad=false",
+        "train.objective_weights=[0.0, 0.0, 0.0]",
+    ]);
+    assert_contains(&m, &["train.objective_weights", "not all zero"]);
+    let m = err(&[
+        "train.pcgrad=false",
+        "train.objective_weights=[1.0, -1.0, 0.0]",
+    ]);
+    assert_contains(&m, &["non-negative"]);
+    let ok = Config::load(
+        None,
+        &[
+            "train.pcgrad=false".into(),
+            "train.objective_weights=[1.0, 0.0, 0.0]".into(),
+        ],
+    )
+    .unwrap();
+    assert_eq!(ok.config.train.objective_weights, [1.0, 0.0, 0.0]);
+    let m = err(&["env.energy_reward=\"downstream\""]);
+    assert_contains(&m, &["energy_reward", "upstream"]);
+}

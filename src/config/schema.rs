@@ -35,6 +35,17 @@ pub struct Train {
     pub normalize_advantages: bool,
     /// Running mean/std normalisation of the networks' inputs (saved with checkpoints).
     pub normalize_observations: bool,
+    /// Weights of the progress, energy and smoothness actor gradients in their sum when
+    /// `pcgrad` is false (normalised to sum 1; the default, equal weights, is the paper's
+    /// averaged-gradient ablation): [1, 0, 0] is progress-only PPO, [9, 1, 1] a fixed
+    /// scalarisation. PCGrad averages its projected gradients equally, so with `pcgrad` the
+    /// weights must be equal.
+    #[serde(default = "equal_weights")]
+    pub objective_weights: [f64; 3],
+}
+
+fn equal_weights() -> [f64; 3] {
+    [1.0, 1.0, 1.0]
 }
 
 /// Episode settings of the environment (SPEC section 3).
@@ -45,6 +56,20 @@ pub struct EnvConfig {
     pub max_steps: u32,
     /// Half-width of the uniform jitter added to each member's start, in x and y (m).
     pub position_jitter_m: f64,
+    /// The energy reward: `paper` (F . dr / (F_max |dr|), SPEC section 3) or `upstream`, which
+    /// counts only the work towards upstream motion, F_x min(dr_x, 0) / (F_max |dr|), so
+    /// pushing with the flow earns nothing.
+    #[serde(default)]
+    pub energy_reward: EnergyReward,
+}
+
+/// The energy reward's form (`env.energy_reward`).
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum EnergyReward {
+    #[default]
+    Paper,
+    Upstream,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

@@ -63,6 +63,26 @@ impl Config {
                 return Err(range(key, v, "must lie in [0, 1]".into()));
             }
         }
+        let w = tr.objective_weights;
+        if !(w.iter().all(|v| v.is_finite() && *v >= 0.0) && w.iter().sum::<f64>() > 0.0) {
+            return Err(ConfigError::Range {
+                key: "train.objective_weights".into(),
+                value: format!("{w:?}"),
+                message: "must be three non-negative weights, not all zero (progress, energy, \
+                          smoothness)"
+                    .into(),
+            });
+        }
+        if tr.pcgrad && !(w[0] == w[1] && w[1] == w[2]) {
+            return Err(ConfigError::Range {
+                key: "train.objective_weights".into(),
+                value: format!("{w:?}"),
+                message: "weighs the summed actor gradients, which PCGrad does not use (it \
+                          averages its projected gradients equally): set train.pcgrad = false \
+                          (or --no-pcgrad) with unequal weights"
+                    .into(),
+            });
+        }
         positive("train.learning_rate", tr.learning_rate)?;
         positive("train.clip", tr.clip)?;
         positive("train.max_grad_norm", tr.max_grad_norm)?;

@@ -14,7 +14,7 @@ pub mod reward;
 
 pub use crate::learn::env::{EpisodeSummary, Outcome, Transition};
 
-use crate::config::Resolved;
+use crate::config::{EnergyReward, Resolved};
 use crate::gpu::params::{GpuMember, GpuMemberDiag};
 use crate::rng::Rng;
 use crate::sim::{FlowBatch, SimError};
@@ -208,6 +208,7 @@ impl SwarmEnv {
         let c = &self.resolved.config;
         let (xs, xf) = (c.domain.success_x_m, c.domain.failure_x_m);
         let (f_max, max_steps) = (c.swarm.max_thrust_n, c.env.max_steps);
+        let energy_reward = c.env.energy_reward;
         let n = self.n;
         let mut out = StepOutput {
             transition: Transition {
@@ -249,7 +250,10 @@ impl SwarmEnv {
                     ];
                     let r = [
                         reward::progress(ep.positions[i][0], now[i][0], xs, xf),
-                        reward::energy(force, dr, f_max),
+                        match energy_reward {
+                            EnergyReward::Paper => reward::energy(force, dr, f_max),
+                            EnergyReward::Upstream => reward::energy_upstream(force, dr, f_max),
+                        },
                         reward::smoothness(ep.previous_action[i], a),
                     ];
                     for k in 0..3 {

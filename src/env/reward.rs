@@ -3,8 +3,9 @@
 //! Delta = (x_{t-1} - x_t) / (x_f - x_s) (upstream displacement positive);
 //! progress = +10 if x_t < x_s, -10 if x_t > x_f, else 100 tanh(3 Delta) / tanh(3) - 0.01 for
 //! Delta < 0 and 100 Delta - 0.01 for Delta >= 0;
-//! energy = F . dr / (F_max |dr|) (0 if dr = 0); smoothness = cos(a_{t-1}, a_t) (1 on the first
-//! step and when either action is zero).
+//! energy = F . dr / (F_max |dr|) (0 if dr = 0), or with `env.energy_reward = "upstream"`
+//! F_x min(dr_x, 0) / (F_max |dr|), the work towards upstream motion only; smoothness =
+//! cos(a_{t-1}, a_t) (1 on the first step and when either action is zero).
 
 /// Progress reward of one agent.
 pub fn progress(x_prev: f64, x_now: f64, x_success: f64, x_failure: f64) -> f64 {
@@ -29,6 +30,18 @@ pub fn energy(force: [f64; 2], dr: [f64; 2], f_max: f64) -> f64 {
         return 0.0;
     }
     (force[0] * dr[0] + force[1] * dr[1]) / (f_max * len)
+}
+
+/// Upstream-only energy reward: the part of the force's work that went into upstream (-x)
+/// motion, F_x min(dr_x, 0) / (F_max |dr|), in [-1, 1]: thrusting upstream while moving
+/// upstream earns it, being carried downstream earns nothing whatever the force, and pushing
+/// downstream while moving upstream costs.
+pub fn energy_upstream(force: [f64; 2], dr: [f64; 2], f_max: f64) -> f64 {
+    let len = dr[0].hypot(dr[1]);
+    if len == 0.0 {
+        return 0.0;
+    }
+    force[0] * dr[0].min(0.0) / (f_max * len)
 }
 
 /// Smoothness reward: cosine between consecutive applied actions.
@@ -85,6 +98,23 @@ mod tests {
         assert!((energy([0.0, f / 2.0], [3e-5, 4e-5], f) - 0.4).abs() < 1e-12);
         assert_eq!(energy([f, 0.0], [0.0, 0.0], f), 0.0);
         assert_eq!(energy([0.0, 0.0], [1e-4, 0.0], f), 0.0);
+    }
+
+    #[test]
+    fn upstream_energy_by_hand() {
+        let f = 8.5e-7;
+        // Full upstream thrust, moving straight upstream: 1.
+        assert!((energy_upstream([-f, 0.0], [-1e-4, 0.0], f) - 1.0).abs() < 1e-12);
+        // Carried downstream, pushing downstream (the paper's energy pays 1): nothing.
+        assert_eq!(energy_upstream([f, 0.0], [1e-4, 0.0], f), 0.0);
+        assert!((energy([f, 0.0], [1e-4, 0.0], f) - 1.0).abs() < 1e-12);
+        // Half thrust upstream, moving up-and-across (-3, 4): 0.5 * 3 / 5.
+        assert!((energy_upstream([-f / 2.0, 0.0], [-3e-5, 4e-5], f) - 0.3).abs() < 1e-12);
+        // Pushing downstream while moving upstream costs: -1 * 3 / 5.
+        assert!((energy_upstream([f, 0.0], [-3e-5, 4e-5], f) + 0.6).abs() < 1e-12);
+        // A wall-ward push does no upstream work.
+        assert_eq!(energy_upstream([0.0, f], [-1e-4, 1e-4], f), 0.0);
+        assert_eq!(energy_upstream([f, 0.0], [0.0, 0.0], f), 0.0);
     }
 
     #[test]

@@ -132,7 +132,8 @@ impl Learner {
                     vec![Vec::new(); 3]
                 };
                 let views: Vec<&[f32]> = grads.objectives.iter().map(|g| g.as_slice()).collect();
-                let surgery = plan(&views, &order);
+                let mut surgery = plan(&views, &order);
+                surgery.weight = mix_weights(&self.cfg, surgery.weight);
                 // The combined gradient plus the entropy bonus's and its squared norm in one
                 // pass; Adam scales it as it reads it where the norm is clipped.
                 let norm_sq = combine(
@@ -181,5 +182,47 @@ impl Learner {
         }
         self.sync_vars()?;
         Ok(stats)
+    }
+}
+
+/// The weight of each objective's gradient in the actor's step: PCGrad's plan, or without
+/// PCGrad `train.objective_weights` normalised to sum 1 (equal weights: 1/3 each, the plain
+/// average the plan already holds, to the bit).
+fn mix_weights(cfg: &TrainConfig, planned: Vec<f64>) -> Vec<f64> {
+    if cfg.pcgrad {
+        return planned;
+    }
+    let w = cfg.objective_weights;
+    let total: f64 = w.iter().sum();
+    w.iter().map(|x| x / total).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn objective_weights_mix_the_gradients_only_without_pcgrad() {
+        let planned = vec![0.5, 0.3, 0.2];
+        let cfg = TrainConfig {
+            pcgrad: true,
+            ..TrainConfig::default()
+        };
+        assert_eq!(mix_weights(&cfg, planned.clone()), planned);
+        let mut cfg = TrainConfig {
+            pcgrad: false,
+            ..TrainConfig::default()
+        };
+        // Equal weights: the plan of the plain average (no projections), bit for bit.
+        let views: Vec<&[f32]> = vec![&[1.0, 2.0], &[-3.0, 1.0], &[0.5, 0.5]];
+        let average = plan(&views, &vec![Vec::new(); 3]).weight;
+        assert_eq!(mix_weights(&cfg, average.clone()), average);
+        cfg.objective_weights = [9.0, 1.0, 1.0];
+        assert_eq!(
+            mix_weights(&cfg, average.clone()),
+            [9.0 / 11.0, 1.0 / 11.0, 1.0 / 11.0]
+        );
+        cfg.objective_weights = [1.0, 0.0, 0.0];
+        assert_eq!(mix_weights(&cfg, average), [1.0, 0.0, 0.0]);
     }
 }

@@ -361,6 +361,67 @@ fn eval_and_rollout_run_a_trained_checkpoint() {
     );
 }
 
+/// A train run writes `policy.safetensors` (SPEC section 8) beside its checkpoints: the actor,
+/// the normaliser and the configuration, a fraction of a checkpoint's size. `eval` and
+/// `rollout --policy` take it and act as with the checkpoint; `--seed` drives sampling.
+#[test]
+fn a_train_run_writes_its_policy_file_and_eval_runs_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let o = bin(&train_args(run.to_str().unwrap(), "16", &[]));
+    assert!(o.status.success(), "{}", text(&o));
+    let policy = run.join("policy.safetensors");
+    let archive = Archive::load(&policy).unwrap();
+    assert_eq!(archive.meta("kind").unwrap(), "policy");
+    assert!(archive.meta("config").unwrap().contains("[swarm]"));
+    assert_eq!(archive.meta("update").unwrap(), "2");
+    let (p_len, c_len) = (
+        std::fs::metadata(&policy).unwrap().len(),
+        std::fs::metadata(newest(&run)).unwrap().len(),
+    );
+    assert!(
+        p_len < 1 << 20 && 4 * p_len < c_len,
+        "policy {p_len} B, checkpoint {c_len} B"
+    );
+    let eval = |from: &Path, seed: &str, name: &str| {
+        let out = dir.path().join(name);
+        let o = bin(&[
+            "eval",
+            "--checkpoint",
+            from.to_str().unwrap(),
+            "--episodes",
+            "4",
+            "--envs",
+            "2",
+            "--seed",
+            seed,
+            "--no-traces",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        read(&out.join("episodes.csv"))
+    };
+    let from_checkpoint = eval(&run, "7", "c7");
+    assert_eq!(eval(&policy, "7", "p7"), from_checkpoint);
+    assert_ne!(
+        eval(&policy, "8", "p8"),
+        from_checkpoint,
+        "the seed drives sampling"
+    );
+    let out = dir.path().join("r");
+    let o = bin(&[
+        "rollout",
+        "--policy",
+        policy.to_str().unwrap(),
+        "--episodes",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+}
+
 #[test]
 fn damaged_and_misused_checkpoints_fail_clearly() {
     let dir = tempfile::tempdir().unwrap();

@@ -235,9 +235,9 @@ fn a_sigterm_stopped_sweep_resumes_to_the_uninterrupted_result() {
     }
 }
 
-/// kill -9 of the pool: the tasks get SIGTERM from the kernel (PR_SET_PDEATHSIG), checkpoint
-/// and record themselves pending; the next call resumes them.
-#[cfg(target_os = "linux")]
+/// kill -9 of the pool: each task sees its parent gone, sends itself one SIGTERM, checkpoints
+/// and records itself pending; the next call resumes them.
+#[cfg(unix)]
 #[test]
 fn a_killed_sweep_resumes() {
     let tmp = tempfile::tempdir().unwrap();
@@ -250,10 +250,13 @@ fn a_killed_sweep_resumes() {
     assert_eq!(o.status.code(), None, "killed: {}", text(&o));
     // The orphaned tasks finish their update and record themselves (a guard, not a timing).
     let start = std::time::Instant::now();
-    while run_dirs(&root)
-        .iter()
-        .any(|d| record(&root, d)["status"].as_str() == Some("running"))
-    {
+    let still_running = |d: &String| {
+        let r = record(&root, d);
+        let pid = r["pid"].as_integer().unwrap_or(0) as libc::pid_t;
+        // SAFETY: signal 0 only asks whether the process exists.
+        r["status"].as_str() == Some("running") && unsafe { libc::kill(pid, 0) } == 0
+    };
+    while run_dirs(&root).iter().any(still_running) {
         assert!(
             start.elapsed().as_secs() < 600,
             "the tasks never recorded their stop"
@@ -266,6 +269,15 @@ fn a_killed_sweep_resumes() {
     for dir in run_dirs(&root) {
         let r = record(&root, &dir);
         assert!(r["resumed_from_update"].as_integer().unwrap() > 0, "{dir}");
+        let log = std::fs::read_to_string(
+            root.join("logs")
+                .join(format!("{}.log", dir.trim_start_matches("runs/"))),
+        )
+        .unwrap();
+        assert!(
+            log.contains("pool (pid") && log.contains("interrupted by SIGTERM"),
+            "{log}"
+        );
         let updates = updates_without_timing(&root.join(&dir));
         assert_eq!(
             updates.len(),

@@ -89,7 +89,8 @@ impl Policy {
     }
 }
 
-/// The trained policy of a checkpoint (a file or a run directory) and its configuration.
+/// The trained policy of a checkpoint or a `policy.safetensors` (a file, or a run directory:
+/// its newest checkpoint) and its configuration; `seed` drives the sampled actions.
 fn load_trained(path: &std::path::Path, seed: u64) -> anyhow::Result<(Learner, Resolved)> {
     let file = checkpoint::locate(path)?;
     let archive = Archive::load(&file)?;
@@ -97,7 +98,7 @@ fn load_trained(path: &std::path::Path, seed: u64) -> anyhow::Result<(Learner, R
         .with_context(|| format!("the configuration saved in {}", file.display()))?;
     let agents = resolved.config.swarm.count as usize;
     let mut learner = Learner::new(agents, OBS_DIM, resolved.config.train.clone(), seed)?;
-    learner.load_state(&archive)?;
+    learner.load_policy(&archive)?;
     log::info!("policy: {}", file.display());
     Ok((learner, resolved))
 }

@@ -267,6 +267,7 @@ fn write_slurm(sweep: &Sweep, args: &SweepArgs) -> anyhow::Result<()> {
 
 /// Runs task `task` of the sweep in `root` (module header).
 fn run_task(root: &Path, task: usize, pack: usize) -> anyhow::Result<()> {
+    pool::watch_pool();
     let sweep = Sweep::open(root, None, false)?;
     let n = sweep.plan.runs.len();
     let shape = Shape {

@@ -2,7 +2,9 @@
 //! `config.toml` (the resolved configuration, headed by the seed, batch, adapter and version as
 //! comments, so it loads back with `--config`), `episodes.csv` and `updates.csv` (SPEC section
 //! 7), a TensorBoard event file of the same scalars, and `checkpoints/update-NNNNNNN.safetensors`
-//! (every K updates, at the end and on a signal; the newest three are kept). A checkpoint holds
+//! (every K updates, at the end and on a signal; the newest three are kept), with
+//! `policy.safetensors` (the newest checkpoint's actor, normaliser and configuration: a few
+//! hundred KB to share or commit) rewritten beside them. A checkpoint holds
 //! the learner, the environments and the run's counters, including how many bytes of each log
 //! belong to it, so `--resume DIR` cuts the logs back to that point and continues exactly as
 //! the uninterrupted run would have (same adapter).
@@ -62,6 +64,10 @@ pub struct TrainArgs {
 }
 
 const UPDATES_HEADER: &str = "update,global_step,loss_progress,loss_energy,loss_smoothness,value_loss,entropy,mean_log_std,cos_pe,cos_ps,cos_es,conflict_pe,conflict_ps,conflict_es,sim_s,learn_s";
+
+/// The trained policy alone (actor, normaliser, configuration), rewritten with every
+/// checkpoint; `eval --checkpoint` and `rollout --policy` take it like a checkpoint.
+pub const POLICY_FILE: &str = "policy.safetensors";
 
 /// Checkpoints kept in `checkpoints/` (older ones are deleted after a newer one is written).
 const KEEP: usize = 3;
@@ -456,6 +462,16 @@ fn save(
     a.set_meta("events_file", events_name);
     let path = dir.join(checkpoint::file_name(p.update));
     a.save(&path)?;
+    // The policy alone beside it (SPEC section 8), always that of the newest checkpoint.
+    let mut policy = Archive::new();
+    learner.save_policy(&mut policy)?;
+    policy.set_meta("kind", "policy");
+    policy.set_meta("version", env!("CARGO_PKG_VERSION"));
+    policy.set_meta("config", plan.resolved.config.to_toml());
+    policy.set_meta("seed", plan.seed);
+    policy.set_meta("update", p.update);
+    policy.set_meta("global_step", p.global);
+    policy.save(&plan.out.join(POLICY_FILE))?;
     log::debug!("checkpoint {}", path.display());
     for old in checkpoint::list(dir).into_iter().skip(KEEP) {
         let _ = std::fs::remove_file(old);

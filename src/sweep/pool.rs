@@ -2,8 +2,11 @@
 //! DIR` with `threads` threads (RAYON_NUM_THREADS), its output appended to `logs/<run>.log`.
 //! Children get their own process group, so a terminal's Ctrl-C reaches only the pool, which
 //! passes the signal on once to every running task (each then checkpoints and records itself
-//! `pending`); on Linux a child also gets SIGTERM if the pool dies (kill -9), so no orphan
-//! keeps running. A task that fails is recorded with its error and the pool goes on.
+//! `pending`). A task also watches its parent ([`watch_pool`]): when the pool dies (kill -9)
+//! it sends itself one SIGTERM, so no orphan keeps running. (Not PR_SET_PDEATHSIG: that fires
+//! again each time a thread of the process that adopts the orphan exits, and a second signal
+//! stops a run without its checkpoint.) A task that fails is recorded with its error and the
+//! pool goes on.
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -11,6 +14,10 @@ use std::time::Duration;
 
 use super::record::{self, Status, TaskRecord};
 use super::{Sweep, SweepError};
+
+/// Set in each task's environment to the pool's pid: the task watches for the pool's death
+/// (module header).
+pub const POOL_VAR: &str = "FLUXSWARM_SWEEP_POOL";
 
 /// How many tasks run at once and the threads of each.
 #[derive(Clone, Copy, Debug)]
@@ -165,14 +172,7 @@ fn spawn(sweep: &Sweep, exe: &Path, index: usize, threads: usize) -> Result<Chil
 fn detach(cmd: &mut Command) {
     use std::os::unix::process::CommandExt;
     cmd.process_group(0);
-    #[cfg(target_os = "linux")]
-    // SAFETY: prctl is async-signal-safe and touches only the child's own settings.
-    unsafe {
-        cmd.pre_exec(|| {
-            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
-            Ok(())
-        });
-    }
+    cmd.env(POOL_VAR, std::process::id().to_string());
 }
 
 #[cfg(not(unix))]
@@ -188,3 +188,32 @@ fn signal(child: &Child, sig: i32) {
 
 #[cfg(not(unix))]
 fn signal(_: &Child, _: i32) {}
+
+/// In a task the pool started (its pid in [`POOL_VAR`]): a thread that sends this process one
+/// SIGTERM once its parent is no longer the pool, as if the pool had passed on a signal.
+pub fn watch_pool() {
+    #[cfg(unix)]
+    {
+        let Some(pool) = std::env::var(POOL_VAR)
+            .ok()
+            .and_then(|v| v.parse::<libc::pid_t>().ok())
+        else {
+            return;
+        };
+        let spawned = std::thread::Builder::new()
+            .name("pool-watch".into())
+            .spawn(move || {
+                // SAFETY: getppid and kill have no memory effects; kill signals this process.
+                while unsafe { libc::getppid() } == pool {
+                    std::thread::sleep(Duration::from_millis(200));
+                }
+                log::warn!("the sweep's pool (pid {pool}) is gone: stopping this run cleanly");
+                unsafe {
+                    libc::kill(libc::getpid(), libc::SIGTERM);
+                }
+            });
+        if let Err(e) = spawned {
+            log::warn!("cannot watch the sweep's pool: {e}");
+        }
+    }
+}

@@ -1,5 +1,6 @@
 //! Saving and restoring the learner in a checkpoint: parameters by name, both optimisers' moments
-//! and step counts, the observation normaliser and the RNG (under `learner.`).
+//! and step counts, the observation normaliser and the RNG (under `learner.`); and the policy
+//! alone (the actor's parameters and the normaliser, the same names), for `policy.safetensors`.
 
 use super::*;
 
@@ -83,6 +84,63 @@ impl Learner {
         self.critic_p = values(&self.critic_vars)?;
         self.normalizer = normalizer;
         self.rng.0 = rng;
+        Ok(())
+    }
+
+    /// Adds what acting needs under the names [`Self::save_state`] uses: the actor's
+    /// parameters, the observation normaliser and the shape (no critic, optimiser or RNG).
+    pub fn save_policy(&self, archive: &mut Archive) -> anyhow::Result<()> {
+        for (name, var) in named_vars(&self.map, "actor") {
+            let data: Vec<f32> = var.as_tensor().flatten_all()?.to_vec1()?;
+            archive.put_f32(&format!("learner.param.{name}"), var.dims(), &data);
+        }
+        if let Some(n) = &self.normalizer {
+            archive.put_f64("learner.obs_norm.count", &[1], &[n.count]);
+            archive.put_f64("learner.obs_norm.mean", &[n.dim()], &n.mean);
+            archive.put_f64("learner.obs_norm.var", &[n.dim()], &n.var);
+        }
+        archive.put_u64("learner.shape", &[self.agents as u64, self.obs_dim as u64]);
+        Ok(())
+    }
+
+    /// Restores the policy (the actor and the normaliser) from a checkpoint or a policy file;
+    /// the critic, the optimisers and the RNG stay as [`Learner::new`] made them, so a seed
+    /// given to it drives the sampled actions.
+    pub fn load_policy(&mut self, archive: &Archive) -> anyhow::Result<()> {
+        let shape = archive.u64("learner.shape", Some(2))?;
+        if shape != [self.agents as u64, self.obs_dim as u64] {
+            return Err(archive
+                .mismatch(format!(
+                    "it was trained with {} agents and {} observations each, this run has {} and {}",
+                    shape[0], shape[1], self.agents, self.obs_dim
+                ))
+                .into());
+        }
+        let saved_norm = archive.shape("learner.obs_norm.mean").is_some();
+        if saved_norm != self.normalizer.is_some() {
+            return Err(archive
+                .mismatch(format!(
+                    "train.normalize_observations was {saved_norm} when it was written, {} now",
+                    !saved_norm
+                ))
+                .into());
+        }
+        let vars = named_vars(&self.map, "actor");
+        let mut params = Vec::with_capacity(vars.len());
+        for (name, var) in &vars {
+            params.push(archive.f32(&format!("learner.param.{name}"), Some(var.elem_count()))?);
+        }
+        let normalizer = match &self.normalizer {
+            Some(n) => Some(ObsNormalizer {
+                count: archive.f64("learner.obs_norm.count", Some(1))?[0],
+                mean: archive.f64("learner.obs_norm.mean", Some(n.dim()))?,
+                var: archive.f64("learner.obs_norm.var", Some(n.dim()))?,
+            }),
+            None => None,
+        };
+        set_values(&vars, &params.concat())?;
+        self.actor_p = values(&self.actor_vars)?;
+        self.normalizer = normalizer;
         Ok(())
     }
 }

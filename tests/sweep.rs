@@ -10,7 +10,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-use common::cli::{bin, text};
+use common::cli::{SWEEP_SET, bin, text};
 
 /// A tiny train sweep: 2 environments, 4-step rollouts in a 30 mm channel, `steps` global
 /// steps, a checkpoint every update.
@@ -19,19 +19,7 @@ fn train_spec(steps: u32, grid: &str, seeds: &str) -> String {
         r#"command = "train"
 args = ["--envs", "2", "--steps", "{steps}", "--checkpoint-every", "1"]
 seeds = {seeds}
-[set]
-"solver.backend" = "native"
-"train.rollout_steps" = 4
-"train.minibatches" = 2
-"domain.nx" = 300
-"domain.length_m" = 0.03
-"domain.success_x_m" = 0.006
-"domain.failure_x_m" = 0.024
-"swarm.count" = 2
-"swarm.grid_rows" = 1
-"swarm.grid_centre_x_m" = 0.015
-"env.max_steps" = 3
-[grid]
+{SWEEP_SET}[grid]
 {grid}
 "#
     )
@@ -290,22 +278,14 @@ fn a_killed_sweep_resumes() {
 #[test]
 fn a_failing_run_is_recorded_and_the_others_go_on() {
     let tmp = tempfile::tempdir().unwrap();
-    let spec = r#"command = "rollout"
+    let spec = format!(
+        r#"command = "rollout"
 args = ["--episodes", "1", "--envs", "1", "--no-traces"]
-[set]
-"solver.backend" = "native"
-"domain.nx" = 300
-"domain.length_m" = 0.03
-"domain.success_x_m" = 0.006
-"domain.failure_x_m" = 0.024
-"swarm.count" = 2
-"swarm.grid_rows" = 1
-"swarm.grid_centre_x_m" = 0.015
-"env.max_steps" = 3
-[grid]
+{SWEEP_SET}[grid]
 "--policy" = ["/nonexistent/policy.safetensors", "zero", "wall-angle:30"]
-"#;
-    let spec = write_spec(tmp.path(), "spec.toml", spec);
+"#
+    );
+    let spec = write_spec(tmp.path(), "spec.toml", &spec);
     let root = tmp.path().join("f");
     let o = sweep(&[
         spec.to_str().unwrap(),

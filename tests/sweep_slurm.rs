@@ -11,26 +11,18 @@ use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use common::cli::{bin, text};
+use common::cli::{SWEEP_SET, bin, text};
 
-const SPEC: &str = r#"command = "train"
+fn spec_text() -> String {
+    format!(
+        r#"command = "train"
 args = ["--envs", "2", "--checkpoint-every", "1"]
 seeds = [1, 2]
-[set]
-"solver.backend" = "native"
-"train.rollout_steps" = 4
-"train.minibatches" = 2
-"domain.nx" = 300
-"domain.length_m" = 0.03
-"domain.success_x_m" = 0.006
-"domain.failure_x_m" = 0.024
-"swarm.count" = 2
-"swarm.grid_rows" = 1
-"swarm.grid_centre_x_m" = 0.015
-"env.max_steps" = 3
-[grid]
+{SWEEP_SET}[grid]
 "--steps" = [16, 4000]
-"#;
+"#
+    )
+}
 
 fn record(root: &Path, dir: &str) -> toml::Table {
     std::fs::read_to_string(root.join(dir).join("sweep-task.toml"))
@@ -74,7 +66,7 @@ fn a_slurm_job_array_runs_every_point_and_a_requeued_task_resumes() {
     }
     let tmp = tempfile::tempdir().unwrap();
     let spec = tmp.path().join("spec.toml");
-    std::fs::write(&spec, SPEC).unwrap();
+    std::fs::write(&spec, spec_text()).unwrap();
     let root = tmp.path().join("sw");
     let root_s = root.to_str().unwrap();
     let o = bin(&[

@@ -138,3 +138,19 @@ pub const SMALL: &[&str] = &[
     "--set",
     "swarm.count=0",
 ];
+
+/// The `[set]` table of the sweep tests' specs: [`SMALL_SWARM`]'s channel and swarm on the
+/// native backend, with 4-step rollouts of 2 minibatches for train runs.
+pub const SWEEP_SET: &str = r#"[set]
+"solver.backend" = "native"
+"train.rollout_steps" = 4
+"train.minibatches" = 2
+"domain.nx" = 300
+"domain.length_m" = 0.03
+"domain.success_x_m" = 0.006
+"domain.failure_x_m" = 0.024
+"swarm.count" = 2
+"swarm.grid_rows" = 1
+"swarm.grid_centre_x_m" = 0.015
+"env.max_steps" = 3
+"#;

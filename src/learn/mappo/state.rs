@@ -18,11 +18,7 @@ impl Learner {
             archive.put_f32(&format!("learner.adam.{tag}.v"), &[len], &opt.v);
             archive.put_u64(&format!("learner.adam.{tag}.t"), &[opt.t]);
         }
-        if let Some(n) = &self.normalizer {
-            archive.put_f64("learner.obs_norm.count", &[1], &[n.count]);
-            archive.put_f64("learner.obs_norm.mean", &[n.dim()], &n.mean);
-            archive.put_f64("learner.obs_norm.var", &[n.dim()], &n.var);
-        }
+        self.put_normalizer(archive);
         archive.put_u64("learner.rng", &[self.rng.0]);
         archive.put_u64("learner.shape", &[self.agents as u64, self.obs_dim as u64]);
         Ok(())
@@ -31,24 +27,7 @@ impl Learner {
     /// Restores what [`Self::save_state`] wrote; the learner must have the same agents,
     /// observation size and normalisation setting.
     pub fn load_state(&mut self, archive: &Archive) -> anyhow::Result<()> {
-        let shape = archive.u64("learner.shape", Some(2))?;
-        if shape != [self.agents as u64, self.obs_dim as u64] {
-            return Err(archive
-                .mismatch(format!(
-                    "it was trained with {} agents and {} observations each, this run has {} and {}",
-                    shape[0], shape[1], self.agents, self.obs_dim
-                ))
-                .into());
-        }
-        let saved_norm = archive.shape("learner.obs_norm.mean").is_some();
-        if saved_norm != self.normalizer.is_some() {
-            return Err(archive
-                .mismatch(format!(
-                    "train.normalize_observations was {saved_norm} when it was written, {} now",
-                    !saved_norm
-                ))
-                .into());
-        }
+        self.check_fits(archive)?;
         // Read everything before changing anything, so a bad file leaves the learner intact.
         let vars = named_vars(&self.map, "");
         let mut params = Vec::with_capacity(vars.len());
@@ -64,14 +43,7 @@ impl Learner {
                 archive.u64(&format!("learner.adam.{tag}.t"), Some(1))?[0],
             ));
         }
-        let normalizer = match &self.normalizer {
-            Some(n) => Some(ObsNormalizer {
-                count: archive.f64("learner.obs_norm.count", Some(1))?[0],
-                mean: archive.f64("learner.obs_norm.mean", Some(n.dim()))?,
-                var: archive.f64("learner.obs_norm.var", Some(n.dim()))?,
-            }),
-            None => None,
-        };
+        let normalizer = self.read_normalizer(archive)?;
         let rng = archive.u64("learner.rng", Some(1))?[0];
         set_values(&vars, &params.concat())?;
         for (opt, (m, v, t)) in [&mut self.opt_actor, &mut self.opt_critic]
@@ -94,11 +66,7 @@ impl Learner {
             let data: Vec<f32> = var.as_tensor().flatten_all()?.to_vec1()?;
             archive.put_f32(&format!("learner.param.{name}"), var.dims(), &data);
         }
-        if let Some(n) = &self.normalizer {
-            archive.put_f64("learner.obs_norm.count", &[1], &[n.count]);
-            archive.put_f64("learner.obs_norm.mean", &[n.dim()], &n.mean);
-            archive.put_f64("learner.obs_norm.var", &[n.dim()], &n.var);
-        }
+        self.put_normalizer(archive);
         archive.put_u64("learner.shape", &[self.agents as u64, self.obs_dim as u64]);
         Ok(())
     }
@@ -107,6 +75,40 @@ impl Learner {
     /// the critic, the optimisers and the RNG stay as [`Learner::new`] made them, so a seed
     /// given to it drives the sampled actions.
     pub fn load_policy(&mut self, archive: &Archive) -> anyhow::Result<()> {
+        self.check_fits(archive)?;
+        let vars = named_vars(&self.map, "actor");
+        let mut params = Vec::with_capacity(vars.len());
+        for (name, var) in &vars {
+            params.push(archive.f32(&format!("learner.param.{name}"), Some(var.elem_count()))?);
+        }
+        let normalizer = self.read_normalizer(archive)?;
+        set_values(&vars, &params.concat())?;
+        self.actor_p = values(&self.actor_vars)?;
+        self.normalizer = normalizer;
+        Ok(())
+    }
+
+    fn put_normalizer(&self, archive: &mut Archive) {
+        if let Some(n) = &self.normalizer {
+            archive.put_f64("learner.obs_norm.count", &[1], &[n.count]);
+            archive.put_f64("learner.obs_norm.mean", &[n.dim()], &n.mean);
+            archive.put_f64("learner.obs_norm.var", &[n.dim()], &n.var);
+        }
+    }
+
+    fn read_normalizer(&self, archive: &Archive) -> anyhow::Result<Option<ObsNormalizer>> {
+        Ok(match &self.normalizer {
+            Some(n) => Some(ObsNormalizer {
+                count: archive.f64("learner.obs_norm.count", Some(1))?[0],
+                mean: archive.f64("learner.obs_norm.mean", Some(n.dim()))?,
+                var: archive.f64("learner.obs_norm.var", Some(n.dim()))?,
+            }),
+            None => None,
+        })
+    }
+
+    /// The archive was written for this learner's agents, observation size and normalisation.
+    fn check_fits(&self, archive: &Archive) -> anyhow::Result<()> {
         let shape = archive.u64("learner.shape", Some(2))?;
         if shape != [self.agents as u64, self.obs_dim as u64] {
             return Err(archive
@@ -125,22 +127,6 @@ impl Learner {
                 ))
                 .into());
         }
-        let vars = named_vars(&self.map, "actor");
-        let mut params = Vec::with_capacity(vars.len());
-        for (name, var) in &vars {
-            params.push(archive.f32(&format!("learner.param.{name}"), Some(var.elem_count()))?);
-        }
-        let normalizer = match &self.normalizer {
-            Some(n) => Some(ObsNormalizer {
-                count: archive.f64("learner.obs_norm.count", Some(1))?[0],
-                mean: archive.f64("learner.obs_norm.mean", Some(n.dim()))?,
-                var: archive.f64("learner.obs_norm.var", Some(n.dim()))?,
-            }),
-            None => None,
-        };
-        set_values(&vars, &params.concat())?;
-        self.actor_p = values(&self.actor_vars)?;
-        self.normalizer = normalizer;
         Ok(())
     }
 }

@@ -326,6 +326,28 @@ args = ["--episodes", "1", "--envs", "1", "--no-traces"]
         text(&o)
     );
     assert!(!tmp.path().join("t").join("runs").exists());
+    // The check reads a point's flags as train does: --no-pcgrad allows unequal weights.
+    let weighted = write_spec(
+        tmp.path(),
+        "weighted.toml",
+        &train_spec(
+            16,
+            "\"--no-pcgrad\" = [true]\n\"train.objective_weights\" = [[1.0, 0.0, 0.0]]",
+            "[1]",
+        ),
+    );
+    let o = sweep(&[
+        weighted.to_str().unwrap(),
+        "--out",
+        tmp.path().join("w").to_str().unwrap(),
+        "--dry-run",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("--no-pcgrad --set train.objective_weights=[1.0, 0.0, 0.0]"),
+        "{}",
+        text(&o)
+    );
 }
 
 #[test]

@@ -160,7 +160,7 @@ fn check_command_lines(sweep: &Sweep) -> anyhow::Result<()> {
         let cli = super::Cli::try_parse_from(std::iter::once("fluxswarm-gpu".into()).chain(args))
             .map_err(|e| anyhow::anyhow!("{}: {}", point(), e.render().to_string().trim()))?;
         if let super::Command::Train(t) = &cli.command {
-            t.common.load().with_context(point)?;
+            super::train::fresh_config(t).with_context(point)?;
         }
     }
     Ok(())

@@ -224,11 +224,17 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn fresh_plan(args: &mut TrainArgs) -> anyhow::Result<Plan> {
+/// The configuration a fresh run of `args` trains in: `--config`, `--set` and `--no-pcgrad`.
+pub fn fresh_config(args: &TrainArgs) -> anyhow::Result<Resolved> {
+    let mut common = args.common.clone();
     if args.no_pcgrad {
-        args.common.sets.push("train.pcgrad=false".into());
+        common.sets.push("train.pcgrad=false".into());
     }
-    let resolved = args.common.load()?;
+    common.load()
+}
+
+fn fresh_plan(args: &mut TrainArgs) -> anyhow::Result<Plan> {
+    let resolved = fresh_config(args)?;
     if resolved.config.swarm.count == 0 {
         bail!("train needs a swarm: swarm.count is 0");
     }

@@ -442,14 +442,9 @@ fn save(
     learner.save_state(&mut a)?;
     MultiAgentEnv::save_state(env, &mut a)?;
     a.put_f32("train.obs", &[obs.len()], obs);
-    a.set_meta("kind", "train");
-    a.set_meta("version", env!("CARGO_PKG_VERSION"));
-    a.set_meta("config", plan.resolved.config.to_toml());
-    a.set_meta("seed", plan.seed);
+    identify(&mut a, "train", plan, p);
     a.set_meta("envs", plan.envs);
     a.set_meta("steps", plan.steps);
-    a.set_meta("update", p.update);
-    a.set_meta("global_step", p.global);
     a.set_meta("sim_s", p.sim_s);
     a.set_meta("learn_s", p.learn_s);
     logs.updates.flush()?;
@@ -471,16 +466,22 @@ fn save(
     // The policy alone beside it (SPEC section 8), always that of the newest checkpoint.
     let mut policy = Archive::new();
     learner.save_policy(&mut policy)?;
-    policy.set_meta("kind", "policy");
-    policy.set_meta("version", env!("CARGO_PKG_VERSION"));
-    policy.set_meta("config", plan.resolved.config.to_toml());
-    policy.set_meta("seed", plan.seed);
-    policy.set_meta("update", p.update);
-    policy.set_meta("global_step", p.global);
+    identify(&mut policy, "policy", plan, p);
     policy.save(&plan.out.join(POLICY_FILE))?;
     log::debug!("checkpoint {}", path.display());
     for old in checkpoint::list(dir).into_iter().skip(KEEP) {
         let _ = std::fs::remove_file(old);
     }
     Ok(())
+}
+
+/// The metadata a checkpoint and a policy file share: what it is, the version, the resolved
+/// configuration, the seed and where in the run it was written.
+fn identify(a: &mut Archive, kind: &str, plan: &Plan, p: &Progress) {
+    a.set_meta("kind", kind);
+    a.set_meta("version", env!("CARGO_PKG_VERSION"));
+    a.set_meta("config", plan.resolved.config.to_toml());
+    a.set_meta("seed", plan.seed);
+    a.set_meta("update", p.update);
+    a.set_meta("global_step", p.global);
 }

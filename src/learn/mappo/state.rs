@@ -8,10 +8,7 @@ impl Learner {
     /// Adds the learner's whole state under `learner.`: parameters by name, both optimisers'
     /// moments and step counts, the observation normaliser and the RNG.
     pub fn save_state(&self, archive: &mut Archive) -> anyhow::Result<()> {
-        for (name, var) in named_vars(&self.map, "") {
-            let data: Vec<f32> = var.as_tensor().flatten_all()?.to_vec1()?;
-            archive.put_f32(&format!("learner.param.{name}"), var.dims(), &data);
-        }
+        self.put_params(archive, "")?;
         for (tag, opt) in [("actor", &self.opt_actor), ("critic", &self.opt_critic)] {
             let len = opt.m.len();
             archive.put_f32(&format!("learner.adam.{tag}.m"), &[len], &opt.m);
@@ -30,10 +27,7 @@ impl Learner {
         self.check_fits(archive)?;
         // Read everything before changing anything, so a bad file leaves the learner intact.
         let vars = named_vars(&self.map, "");
-        let mut params = Vec::with_capacity(vars.len());
-        for (name, var) in &vars {
-            params.push(archive.f32(&format!("learner.param.{name}"), Some(var.elem_count()))?);
-        }
+        let params = read_params(archive, &vars)?;
         let mut opts = Vec::new();
         for (tag, opt) in [("actor", &self.opt_actor), ("critic", &self.opt_critic)] {
             let len = Some(opt.m.len());
@@ -45,7 +39,7 @@ impl Learner {
         }
         let normalizer = self.read_normalizer(archive)?;
         let rng = archive.u64("learner.rng", Some(1))?[0];
-        set_values(&vars, &params.concat())?;
+        set_values(&vars, &params)?;
         for (opt, (m, v, t)) in [&mut self.opt_actor, &mut self.opt_critic]
             .into_iter()
             .zip(opts)
@@ -62,10 +56,7 @@ impl Learner {
     /// Adds what acting needs under the names [`Self::save_state`] uses: the actor's
     /// parameters, the observation normaliser and the shape (no critic, optimiser or RNG).
     pub fn save_policy(&self, archive: &mut Archive) -> anyhow::Result<()> {
-        for (name, var) in named_vars(&self.map, "actor") {
-            let data: Vec<f32> = var.as_tensor().flatten_all()?.to_vec1()?;
-            archive.put_f32(&format!("learner.param.{name}"), var.dims(), &data);
-        }
+        self.put_params(archive, "actor")?;
         self.put_normalizer(archive);
         archive.put_u64("learner.shape", &[self.agents as u64, self.obs_dim as u64]);
         Ok(())
@@ -77,12 +68,9 @@ impl Learner {
     pub fn load_policy(&mut self, archive: &Archive) -> anyhow::Result<()> {
         self.check_fits(archive)?;
         let vars = named_vars(&self.map, "actor");
-        let mut params = Vec::with_capacity(vars.len());
-        for (name, var) in &vars {
-            params.push(archive.f32(&format!("learner.param.{name}"), Some(var.elem_count()))?);
-        }
+        let params = read_params(archive, &vars)?;
         let normalizer = self.read_normalizer(archive)?;
-        set_values(&vars, &params.concat())?;
+        set_values(&vars, &params)?;
         self.actor_p = values(&self.actor_vars)?;
         self.normalizer = normalizer;
         Ok(())
@@ -129,4 +117,22 @@ impl Learner {
         }
         Ok(())
     }
+
+    /// The parameters whose names start with `prefix`, as `learner.param.<name>`.
+    fn put_params(&self, archive: &mut Archive, prefix: &str) -> anyhow::Result<()> {
+        for (name, var) in named_vars(&self.map, prefix) {
+            let data: Vec<f32> = var.as_tensor().flatten_all()?.to_vec1()?;
+            archive.put_f32(&format!("learner.param.{name}"), var.dims(), &data);
+        }
+        Ok(())
+    }
+}
+
+/// The saved values of `vars`, concatenated in their order.
+fn read_params(archive: &Archive, vars: &[(String, Var)]) -> anyhow::Result<Vec<f32>> {
+    let mut params = Vec::new();
+    for (name, var) in vars {
+        params.extend(archive.f32(&format!("learner.param.{name}"), Some(var.elem_count()))?);
+    }
+    Ok(params)
 }

@@ -18,6 +18,7 @@ pub mod learn;
 pub mod output;
 pub mod report;
 pub mod rng;
+pub mod rollout;
 pub mod roofline;
 pub mod sim;
 pub mod sweep;

@@ -5,7 +5,7 @@
 
 use crate::checkpoint::Archive;
 use crate::env::reward;
-use crate::learn::env::{EpisodeSummary, MultiAgentEnv, Outcome, Transition};
+use crate::learn::env::{EnvError, EpisodeSummary, MultiAgentEnv, Outcome, Transition};
 use crate::rng::Rng;
 
 /// N point masses per environment on a plane, starting at random around (3, 0), that should
@@ -86,12 +86,12 @@ impl MultiAgentEnv for PointMasses {
         8
     }
 
-    fn reset(&mut self) -> anyhow::Result<Vec<f32>> {
+    fn reset(&mut self) -> Result<Vec<f32>, EnvError> {
         (0..self.envs).for_each(|e| self.reset_env(e));
         Ok((0..self.envs).flat_map(|e| self.observe(e)).collect())
     }
 
-    fn step(&mut self, actions: &[[f32; 2]]) -> anyhow::Result<Transition> {
+    fn step(&mut self, actions: &[[f32; 2]]) -> Result<Transition, EnvError> {
         let (ne, n) = (self.envs, self.agents);
         let mut t = Transition {
             obs: Vec::new(),
@@ -159,7 +159,7 @@ impl MultiAgentEnv for PointMasses {
         Ok(t)
     }
 
-    fn save_state(&self, archive: &mut Archive) -> anyhow::Result<()> {
+    fn save_state(&self, archive: &mut Archive) -> Result<(), EnvError> {
         let k = self.envs * self.agents;
         archive.put_u64("env.rng", &[self.rng.0]);
         archive.put_f64("env.pos", &[k, 2], &self.pos.concat());
@@ -176,7 +176,7 @@ impl MultiAgentEnv for PointMasses {
         Ok(())
     }
 
-    fn load_state(&mut self, archive: &Archive) -> anyhow::Result<()> {
+    fn load_state(&mut self, archive: &Archive) -> Result<(), EnvError> {
         let k = self.envs * self.agents;
         let pairs = |v: Vec<f64>| -> Vec<[f64; 2]> { v.chunks(2).map(|c| [c[0], c[1]]).collect() };
         self.pos = pairs(archive.f64("env.pos", Some(2 * k))?);

@@ -9,17 +9,25 @@ use std::path::{Path, PathBuf};
 
 /// (directory under src/, modules it must not name).
 const RULES: &[(&str, &[&str])] = &[
-    ("learn", &["env", "sim", "gpu", "report", "output", "cli"]),
+    (
+        "learn",
+        &["env", "sim", "gpu", "report", "output", "rollout", "cli"],
+    ),
     (
         "sim",
-        &["env", "learn", "report", "output", "cli", "testing"],
+        &[
+            "env", "learn", "report", "output", "rollout", "cli", "testing",
+        ],
     ),
     (
         "gpu",
-        &["sim", "env", "learn", "report", "output", "cli", "testing"],
+        &[
+            "sim", "env", "learn", "report", "output", "rollout", "cli", "testing",
+        ],
     ),
-    ("env", &["report", "output", "cli"]),
-    ("output", &["cli", "report"]),
+    ("env", &["report", "output", "rollout", "cli"]),
+    ("output", &["cli", "report", "rollout"]),
+    ("rollout", &["cli", "report", "sweep", "testing"]),
     ("report", &["cli", "sim", "gpu"]),
     (
         "sweep",

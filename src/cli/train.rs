@@ -22,7 +22,6 @@ use clap::Args;
 use fluxswarm_gpu::checkpoint::{self, Archive, CheckpointError};
 use fluxswarm_gpu::config::{Config, Resolved};
 use fluxswarm_gpu::env::{OBS_DIM, Outcome, SwarmEnv};
-use fluxswarm_gpu::learn::env::MultiAgentEnv;
 use fluxswarm_gpu::learn::mappo::{Iteration, Learner, TrainConfig};
 use fluxswarm_gpu::output::episodes::EpisodesCsv;
 use fluxswarm_gpu::output::run_dir;
@@ -119,7 +118,7 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
     let (mut progress, mut logs) = match &resumed {
         Some((_, archive)) => {
             learner.load_state(archive)?;
-            MultiAgentEnv::load_state(&mut env, archive)?;
+            env.load_state(archive, "env")?;
             obs = archive.f32("train.obs", Some(obs.len()))?;
             let p = Progress {
                 update: archive.meta_parse("update")?,
@@ -440,7 +439,7 @@ fn save(
 ) -> anyhow::Result<()> {
     let mut a = Archive::new();
     learner.save_state(&mut a)?;
-    MultiAgentEnv::save_state(env, &mut a)?;
+    env.save_state(&mut a, "env")?;
     a.put_f32("train.obs", &[obs.len()], obs);
     identify(&mut a, "train", plan, p);
     a.set_meta("envs", plan.envs);

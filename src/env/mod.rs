@@ -16,6 +16,7 @@ pub use crate::learn::env::{EpisodeSummary, Outcome, Transition};
 
 use crate::config::{EnergyReward, Resolved};
 use crate::gpu::params::{GpuMember, GpuMemberDiag};
+use crate::learn::EnvError;
 use crate::rng::Rng;
 use crate::sim::{FlowBatch, SimError};
 
@@ -93,6 +94,11 @@ impl SwarmEnv {
 
     pub fn n_agents(&self) -> usize {
         self.n
+    }
+
+    /// The configuration the environments run.
+    pub fn resolved(&self) -> &Resolved {
+        &self.resolved
     }
 
     pub fn batch(&self) -> &dyn FlowBatch {
@@ -331,18 +337,18 @@ impl crate::learn::env::MultiAgentEnv for SwarmEnv {
     fn obs_dim(&self) -> usize {
         OBS_DIM
     }
-    fn reset(&mut self) -> anyhow::Result<Vec<f32>> {
+    fn reset(&mut self) -> Result<Vec<f32>, EnvError> {
         Ok(SwarmEnv::reset(self)?)
     }
-    fn step(&mut self, actions: &[[f32; 2]]) -> anyhow::Result<Transition> {
+    fn step(&mut self, actions: &[[f32; 2]]) -> Result<Transition, EnvError> {
         Ok(SwarmEnv::step(self, actions)?.transition)
     }
 
-    fn save_state(&self, archive: &mut crate::checkpoint::Archive) -> anyhow::Result<()> {
+    fn save_state(&self, archive: &mut crate::checkpoint::Archive) -> Result<(), EnvError> {
         Ok(SwarmEnv::save_state(self, archive, "env")?)
     }
 
-    fn load_state(&mut self, archive: &crate::checkpoint::Archive) -> anyhow::Result<()> {
+    fn load_state(&mut self, archive: &crate::checkpoint::Archive) -> Result<(), EnvError> {
         Ok(SwarmEnv::load_state(self, archive, "env")?)
     }
 }

@@ -2,6 +2,7 @@
 //! observations [E][N][obs_dim], 2D actions [E][N] and the [`Transition`] it gets back.
 //! A toy environment with a known optimum for tests is `crate::testing::PointMasses`.
 
+pub use super::error::EnvError;
 pub use super::transition::{EpisodeSummary, Outcome, Transition};
 use crate::checkpoint::Archive;
 
@@ -10,10 +11,10 @@ pub trait MultiAgentEnv {
     fn n_env(&self) -> usize;
     fn n_agents(&self) -> usize;
     fn obs_dim(&self) -> usize;
-    fn reset(&mut self) -> anyhow::Result<Vec<f32>>;
-    fn step(&mut self, actions: &[[f32; 2]]) -> anyhow::Result<Transition>;
+    fn reset(&mut self) -> Result<Vec<f32>, EnvError>;
+    fn step(&mut self, actions: &[[f32; 2]]) -> Result<Transition, EnvError>;
     /// Adds the whole state of every environment (after `reset`) to a checkpoint under `env.`.
-    fn save_state(&self, archive: &mut Archive) -> anyhow::Result<()>;
+    fn save_state(&self, archive: &mut Archive) -> Result<(), EnvError>;
     /// Restores what `save_state` wrote into environments of the same shape.
-    fn load_state(&mut self, archive: &Archive) -> anyhow::Result<()>;
+    fn load_state(&mut self, archive: &Archive) -> Result<(), EnvError>;
 }

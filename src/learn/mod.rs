@@ -11,6 +11,7 @@
 pub mod adam;
 pub mod dense;
 pub mod env;
+pub mod error;
 pub mod gae;
 pub mod gaussian;
 mod lanes;
@@ -22,3 +23,5 @@ pub mod pcgrad;
 pub mod ppo;
 pub mod surgery;
 pub mod transition;
+
+pub use error::{EnvError, LearnError};

@@ -7,3 +7,4 @@ pub mod npy;
 pub mod run_dir;
 pub mod tensorboard;
 pub mod text;
+pub mod traces;

@@ -24,6 +24,7 @@ use candle_nn::{VarBuilder, VarMap};
 
 use super::adam::Adam;
 use super::env::MultiAgentEnv;
+use super::error::LearnError;
 use super::gae::{Rollout, gae};
 use super::mlp::{self, Layout, actor::ActorActs};
 #[cfg(test)]
@@ -154,20 +155,23 @@ fn clip_scale(norm_sq: f64, max: f64) -> Option<f32> {
 /// development VM a second thread gained nothing, with candle's networks and with the
 /// hand-written ones (docs/performance.md, "The learner's cost"); many-core machines may gain
 /// from more at large batches.
-pub fn learner_threads() -> anyhow::Result<usize> {
+pub fn learner_threads() -> Result<usize, LearnError> {
     match std::env::var("FLUXSWARM_LEARNER_THREADS") {
         Err(_) => Ok(1),
         Ok(v) => match v.trim().parse::<usize>() {
             Ok(n) if n >= 1 => Ok(n),
-            _ => anyhow::bail!(
-                "FLUXSWARM_LEARNER_THREADS={v}: give a positive number of threads, or unset it for 1"
-            ),
+            _ => Err(LearnError::Threads { value: v }),
         },
     }
 }
 
 impl Learner {
-    pub fn new(agents: usize, obs_dim: usize, cfg: TrainConfig, seed: u64) -> anyhow::Result<Self> {
+    pub fn new(
+        agents: usize,
+        obs_dim: usize,
+        cfg: TrainConfig,
+        seed: u64,
+    ) -> Result<Self, LearnError> {
         let dev = Device::Cpu;
         let map = VarMap::new();
         let vb = VarBuilder::from_varmap(&map, DType::F32, &dev);
@@ -193,10 +197,13 @@ impl Learner {
                 .iter()
                 .map(|(n, v)| (n.clone(), v.dims().to_vec()))
                 .collect();
-            anyhow::ensure!(
-                want == have,
-                "the {tag}'s layout {want:?} is not its variables' {have:?}"
-            );
+            if want != have {
+                return Err(LearnError::Layout {
+                    net: tag,
+                    want,
+                    have,
+                });
+            }
         }
         let actor_p = values(&actor_vars)?;
         let critic_p = values(&critic_vars)?;

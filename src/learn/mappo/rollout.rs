@@ -11,7 +11,7 @@ impl Learner {
         &mut self,
         obs: &[f32],
         deterministic: bool,
-    ) -> anyhow::Result<(Vec<[f32; 2]>, Vec<f32>)> {
+    ) -> Result<(Vec<[f32; 2]>, Vec<f32>), LearnError> {
         let pool = self.pool.clone();
         pool.install(|| self.act_serial(obs, deterministic))
     }
@@ -20,7 +20,7 @@ impl Learner {
         &mut self,
         obs: &[f32],
         deterministic: bool,
-    ) -> anyhow::Result<(Vec<[f32; 2]>, Vec<f32>)> {
+    ) -> Result<(Vec<[f32; 2]>, Vec<f32>), LearnError> {
         let rows = obs.len() / self.obs_dim;
         let acts = mlp::actor::forward(&self.actor_layout, &self.actor_p, obs, rows);
         let (m, log_std) = (&acts.mean, &acts.log_std);
@@ -43,7 +43,7 @@ impl Learner {
     }
 
     /// Values [B][N][3] of joint states given as network inputs [B][N][D].
-    pub fn values(&self, obs: &[f32]) -> anyhow::Result<Vec<f32>> {
+    pub fn values(&self, obs: &[f32]) -> Result<Vec<f32>, LearnError> {
         self.pool.install(|| {
             let (n, b) = (self.agents, obs.len() / (self.agents * self.obs_dim));
             let c = mlp::critic::forward(&self.critic_layout, &self.critic_p, obs, b);
@@ -62,7 +62,7 @@ impl Learner {
         &mut self,
         env: &mut dyn MultiAgentEnv,
         obs: &mut Vec<f32>,
-    ) -> anyhow::Result<Iteration> {
+    ) -> Result<Iteration, LearnError> {
         let start = std::time::Instant::now();
         let mut sim_s = 0.0;
         let (t_len, ne, n, d) = (
@@ -103,7 +103,7 @@ impl Learner {
             logp_buf.extend(logp);
             values.extend_from_slice(&v);
             let t0 = std::time::Instant::now();
-            let tr = env.step(&actions)?;
+            let tr = env.step(&actions).map_err(LearnError::Env)?;
             sim_s += t0.elapsed().as_secs_f64();
             rewards.extend_from_slice(&tr.rewards);
             for (e, ended) in ended_prev.iter_mut().enumerate() {

@@ -7,7 +7,7 @@ use super::*;
 impl Learner {
     /// Adds the learner's whole state under `learner.`: parameters by name, both optimisers'
     /// moments and step counts, the observation normaliser and the RNG.
-    pub fn save_state(&self, archive: &mut Archive) -> anyhow::Result<()> {
+    pub fn save_state(&self, archive: &mut Archive) -> Result<(), LearnError> {
         self.put_params(archive, "")?;
         for (tag, opt) in [("actor", &self.opt_actor), ("critic", &self.opt_critic)] {
             let len = opt.m.len();
@@ -23,7 +23,7 @@ impl Learner {
 
     /// Restores what [`Self::save_state`] wrote; the learner must have the same agents,
     /// observation size and normalisation setting.
-    pub fn load_state(&mut self, archive: &Archive) -> anyhow::Result<()> {
+    pub fn load_state(&mut self, archive: &Archive) -> Result<(), LearnError> {
         self.check_fits(archive)?;
         // Read everything before changing anything, so a bad file leaves the learner intact.
         let vars = named_vars(&self.map, "");
@@ -55,7 +55,7 @@ impl Learner {
 
     /// Adds what acting needs under the names [`Self::save_state`] uses: the actor's
     /// parameters, the observation normaliser and the shape (no critic, optimiser or RNG).
-    pub fn save_policy(&self, archive: &mut Archive) -> anyhow::Result<()> {
+    pub fn save_policy(&self, archive: &mut Archive) -> Result<(), LearnError> {
         self.put_params(archive, "actor")?;
         self.put_normalizer(archive);
         archive.put_u64("learner.shape", &[self.agents as u64, self.obs_dim as u64]);
@@ -65,7 +65,7 @@ impl Learner {
     /// Restores the policy (the actor and the normaliser) from a checkpoint or a policy file;
     /// the critic, the optimisers and the RNG stay as [`Learner::new`] made them, so a seed
     /// given to it drives the sampled actions.
-    pub fn load_policy(&mut self, archive: &Archive) -> anyhow::Result<()> {
+    pub fn load_policy(&mut self, archive: &Archive) -> Result<(), LearnError> {
         self.check_fits(archive)?;
         let vars = named_vars(&self.map, "actor");
         let params = read_params(archive, &vars)?;
@@ -84,7 +84,7 @@ impl Learner {
         }
     }
 
-    fn read_normalizer(&self, archive: &Archive) -> anyhow::Result<Option<ObsNormalizer>> {
+    fn read_normalizer(&self, archive: &Archive) -> Result<Option<ObsNormalizer>, LearnError> {
         Ok(match &self.normalizer {
             Some(n) => Some(ObsNormalizer {
                 count: archive.f64("learner.obs_norm.count", Some(1))?[0],
@@ -96,7 +96,7 @@ impl Learner {
     }
 
     /// The archive was written for this learner's agents, observation size and normalisation.
-    fn check_fits(&self, archive: &Archive) -> anyhow::Result<()> {
+    fn check_fits(&self, archive: &Archive) -> Result<(), LearnError> {
         let shape = archive.u64("learner.shape", Some(2))?;
         if shape != [self.agents as u64, self.obs_dim as u64] {
             return Err(archive
@@ -119,7 +119,7 @@ impl Learner {
     }
 
     /// The parameters whose names start with `prefix`, as `learner.param.<name>`.
-    fn put_params(&self, archive: &mut Archive, prefix: &str) -> anyhow::Result<()> {
+    fn put_params(&self, archive: &mut Archive, prefix: &str) -> Result<(), LearnError> {
         for (name, var) in named_vars(&self.map, prefix) {
             let data: Vec<f32> = var.as_tensor().flatten_all()?.to_vec1()?;
             archive.put_f32(&format!("learner.param.{name}"), var.dims(), &data);
@@ -129,7 +129,7 @@ impl Learner {
 }
 
 /// The saved values of `vars`, concatenated in their order.
-fn read_params(archive: &Archive, vars: &[(String, Var)]) -> anyhow::Result<Vec<f32>> {
+fn read_params(archive: &Archive, vars: &[(String, Var)]) -> Result<Vec<f32>, LearnError> {
     let mut params = Vec::new();
     for (name, var) in vars {
         params.extend(archive.f32(&format!("learner.param.{name}"), Some(var.elem_count()))?);

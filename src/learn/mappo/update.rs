@@ -15,7 +15,7 @@ impl Learner {
         d_lp: &[Vec<f32>],
         b: usize,
         n: usize,
-    ) -> anyhow::Result<ActorGradients> {
+    ) -> Result<ActorGradients, LearnError> {
         Ok(self.actor_grads(&pass.to_acts()?, actions, d_lp, b, n))
     }
 
@@ -84,7 +84,7 @@ impl Learner {
         adv: &[f32],
         returns: &[f32],
         samples: usize,
-    ) -> anyhow::Result<UpdateStats> {
+    ) -> Result<UpdateStats, LearnError> {
         let (n, d) = (self.agents, self.obs_dim);
         let mb = (samples / self.cfg.minibatches.max(1) as usize).max(1);
         let mut stats = UpdateStats::default();

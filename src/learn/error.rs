@@ -1,0 +1,43 @@
+//! The learner's errors: each says what went wrong and what to do about it.
+
+use crate::checkpoint::CheckpointError;
+
+/// What an environment's [`crate::learn::env::MultiAgentEnv`] methods fail with: any error of
+/// the environment's own, boxed, so that the learner needs to know no environment's types.
+pub type EnvError = Box<dyn std::error::Error + Send + Sync + 'static>;
+
+/// An error of the learner: its set-up, its networks, its saved state or the environment it
+/// drives.
+#[derive(Debug, thiserror::Error)]
+pub enum LearnError {
+    /// `FLUXSWARM_LEARNER_THREADS` is not a positive integer.
+    #[error(
+        "FLUXSWARM_LEARNER_THREADS={value}: give a positive number of threads, or unset it for 1"
+    )]
+    Threads {
+        /// The variable's value as set.
+        value: String,
+    },
+    /// The learner's thread pool could not start.
+    #[error("starting the learner's thread pool: {0}")]
+    Pool(#[from] rayon::ThreadPoolBuildError),
+    /// A network's hand-written layout differs from candle's variables (a programming error).
+    #[error("the {net}'s layout {want:?} is not its variables' {have:?}")]
+    Layout {
+        /// `actor` or `critic`.
+        net: &'static str,
+        /// Names and shapes the layout expects.
+        want: Vec<(String, Vec<usize>)>,
+        /// Names and shapes of the variables.
+        have: Vec<(String, Vec<usize>)>,
+    },
+    /// A tensor operation failed.
+    #[error("a tensor operation of the learner failed: {0}")]
+    Tensor(#[from] candle_core::Error),
+    /// A checkpoint or policy file does not hold what the learner needs.
+    #[error(transparent)]
+    Checkpoint(#[from] CheckpointError),
+    /// The environment the learner drives failed.
+    #[error(transparent)]
+    Env(EnvError),
+}

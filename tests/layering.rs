@@ -98,3 +98,28 @@ fn a_forbidden_import_is_found() {
     assert_eq!(found.len(), 1, "{found:?}");
     assert!(found[0].ends_with("bad.rs:2: learn names env"), "{found:?}");
 }
+
+/// `anyhow` belongs to the binary (`main.rs`, `cli/`): the library's modules return their own
+/// typed errors (issue 17, STYLE).
+#[test]
+fn the_library_uses_typed_errors_not_anyhow() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let found: Vec<String> = files
+        .iter()
+        .filter(|f| !f.starts_with(src.join("cli")) && !f.ends_with("main.rs"))
+        .filter(|f| {
+            std::fs::read_to_string(f)
+                .unwrap()
+                .lines()
+                .any(|l| l.split("//").next().unwrap_or("").contains("anyhow"))
+        })
+        .map(|f| f.display().to_string())
+        .collect();
+    assert!(
+        found.is_empty(),
+        "anyhow in library code:\n{}",
+        found.join("\n")
+    );
+}

@@ -6,7 +6,7 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, anyhow, bail};
+use super::error::{ReportError, Result};
 
 /// A CSV file with a header row (no quoting: none of our files needs it).
 pub struct Csv {
@@ -16,13 +16,12 @@ pub struct Csv {
 }
 
 impl Csv {
-    pub fn read(path: &Path) -> anyhow::Result<Self> {
-        let text =
-            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(ReportError::read(path))?;
         let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-        let header = lines
-            .next()
-            .ok_or_else(|| anyhow!("{} is empty (no header row)", path.display()))?;
+        let header = lines.next().ok_or_else(|| {
+            ReportError::Invalid(format!("{} is empty (no header row)", path.display()))
+        })?;
         let columns = header
             .split(',')
             .enumerate()
@@ -38,17 +37,17 @@ impl Csv {
         })
     }
 
-    fn index(&self, name: &str) -> anyhow::Result<usize> {
+    fn index(&self, name: &str) -> Result<usize> {
         self.columns.get(name).copied().ok_or_else(|| {
-            anyhow!(
+            ReportError::Invalid(format!(
                 "{} has no column `{name}`: is it a fluxswarm-gpu file of this version?",
                 self.path.display()
-            )
+            ))
         })
     }
 
     /// Column `name` of every row, parsed.
-    pub fn column<T: std::str::FromStr>(&self, name: &str) -> anyhow::Result<Vec<T>> {
+    pub fn column<T: std::str::FromStr>(&self, name: &str) -> Result<Vec<T>> {
         let i = self.index(name)?;
         self.rows
             .iter()
@@ -56,11 +55,11 @@ impl Csv {
             .map(|(r, row)| {
                 let cell = row.get(i).map(String::as_str).unwrap_or("");
                 cell.parse().map_err(|_| {
-                    anyhow!(
+                    ReportError::Invalid(format!(
                         "{} row {}: `{name}` = {cell:?} is not a number of the expected kind",
                         self.path.display(),
                         r + 2
-                    )
+                    ))
                 })
             })
             .collect()
@@ -125,14 +124,12 @@ pub struct RunInfo {
 }
 
 impl RunInfo {
-    pub fn read(dir: &Path) -> anyhow::Result<Self> {
+    pub fn read(dir: &Path) -> Result<Self> {
         let path = dir.join("config.toml");
-        let text = std::fs::read_to_string(&path).with_context(|| {
-            format!(
-                "reading {}: is {} a fluxswarm-gpu run directory?",
-                path.display(),
-                dir.display()
-            )
+        let text = std::fs::read_to_string(&path).map_err(|cause| ReportError::Read {
+            path: path.clone(),
+            cause,
+            hint: format!(": is {} a fluxswarm-gpu run directory?", dir.display()),
         })?;
         let header = text.lines().next().unwrap_or("");
         let after = |key: &str| -> Option<String> {
@@ -141,13 +138,18 @@ impl RunInfo {
         };
         let word =
             |key: &str| after(key).and_then(|r| r.split([',', ' ']).next().map(String::from));
-        let value: toml::Value =
-            toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+        let value: toml::Value = toml::from_str(&text)
+            .map_err(|e| ReportError::Invalid(format!("parsing {}: {e}", path.display())))?;
         let get = |section: &str, key: &str| value.get(section).and_then(|s| s.get(key));
-        let num = |section: &str, key: &str| -> anyhow::Result<f64> {
+        let num = |section: &str, key: &str| -> Result<f64> {
             get(section, key)
                 .and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)))
-                .ok_or_else(|| anyhow!("{} has no number {section}.{key}", path.display()))
+                .ok_or_else(|| {
+                    ReportError::Invalid(format!(
+                        "{} has no number {section}.{key}",
+                        path.display()
+                    ))
+                })
         };
         let envs = header
             .split(", ")
@@ -185,14 +187,14 @@ pub struct RolloutRun {
 }
 
 impl TrainRun {
-    pub fn read(dir: &Path) -> anyhow::Result<Self> {
+    pub fn read(dir: &Path) -> Result<Self> {
         let info = RunInfo::read(dir)?;
         let updates_path = dir.join("updates.csv");
         if !updates_path.exists() {
-            bail!(
+            return Err(ReportError::Usage(format!(
                 "{} has no updates.csv: give train run directories as RUN_DIR/--compare, rollout or eval directories as --baseline/--before/--after",
                 dir.display()
-            );
+            )));
         }
         let episodes = read_episodes(&dir.join("episodes.csv"), true)?;
         let u = Csv::read(&updates_path)?;
@@ -202,7 +204,7 @@ impl TrainRun {
             u.column::<f64>("sim_s")?,
             u.column::<f64>("learn_s")?,
         );
-        let cols = |names: [&str; 3]| -> anyhow::Result<Vec<[f64; 3]>> {
+        let cols = |names: [&str; 3]| -> Result<Vec<[f64; 3]>> {
             let c: Vec<Vec<f64>> = names
                 .iter()
                 .map(|n| u.column::<f64>(n))
@@ -242,7 +244,7 @@ impl TrainRun {
 }
 
 impl RolloutRun {
-    pub fn read(dir: &Path) -> anyhow::Result<Self> {
+    pub fn read(dir: &Path) -> Result<Self> {
         let info = RunInfo::read(dir)?;
         let episodes = read_episodes(&dir.join("episodes.csv"), false)?;
         let s = Csv::read(&dir.join("swarm.csv"))?;
@@ -306,7 +308,7 @@ impl RolloutRun {
 }
 
 /// The rows of an `episodes.csv` (`global_step`: the file is a train run's, which has it).
-pub fn read_episodes(path: &Path, global_step: bool) -> anyhow::Result<Vec<Episode>> {
+pub fn read_episodes(path: &Path, global_step: bool) -> Result<Vec<Episode>> {
     let c = Csv::read(path)?;
     let global: Vec<u64> = if global_step {
         c.column("global_step")?

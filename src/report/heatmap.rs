@@ -88,7 +88,7 @@ pub fn save(
     columns: usize,
     scale: Scale,
     caption: &str,
-) -> anyhow::Result<()> {
+) -> super::error::Result<()> {
     let columns = columns.clamp(1, panels.len().max(1));
     let rows = panels.len().div_ceil(columns).max(1);
     let (w, h) = (420 * columns as u32, 340 * rows as u32 + 40);
@@ -173,7 +173,7 @@ pub fn save_scatter(
     (x_desc, y_desc): (&str, &str),
     scale: Scale,
     caption: &str,
-) -> anyhow::Result<()> {
+) -> super::error::Result<()> {
     let (w, h) = (520 * panels.len().max(1) as u32, 460);
     super::plot::save_rgb(path, (w, h), |buf| {
         draw_scatter(buf, (w, h), panels, (x_desc, y_desc), scale, caption)

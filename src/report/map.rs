@@ -19,7 +19,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, anyhow, bail};
+use super::error::{ReportError, Result, Within};
 
 use super::data::Csv;
 use super::stats::{mean_std, wilson95};
@@ -97,21 +97,23 @@ fn header_policy(header: &str) -> Option<String> {
     Some(policy.to_string())
 }
 
-fn number(value: &toml::Value, section: &str, key: &str, path: &Path) -> anyhow::Result<f64> {
+fn number(value: &toml::Value, section: &str, key: &str, path: &Path) -> Result<f64> {
     value
         .get(section)
         .and_then(|s| s.get(key))
         .and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)))
-        .ok_or_else(|| anyhow!("{} has no number {section}.{key}", path.display()))
+        .ok_or_else(|| {
+            ReportError::Invalid(format!("{} has no number {section}.{key}", path.display()))
+        })
 }
 
 /// A run directory's config.toml: its path, its text (the header is the first line) and its
 /// parsed values.
-fn read_config(dir: &Path) -> anyhow::Result<(PathBuf, String, toml::Value)> {
+fn read_config(dir: &Path) -> Result<(PathBuf, String, toml::Value)> {
     let path = dir.join("config.toml");
-    let text =
-        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
-    let value = toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+    let text = std::fs::read_to_string(&path).map_err(ReportError::read(&path))?;
+    let value = toml::from_str(&text)
+        .map_err(|e| ReportError::Invalid(format!("parsing {}: {e}", path.display())))?;
     Ok((path, text, value))
 }
 
@@ -126,17 +128,17 @@ fn inlet_scale(value: &toml::Value) -> f64 {
 
 impl MapRun {
     /// Reads a rollout directory written with `starts.csv` (this version's `rollout`).
-    pub fn read(dir: &Path) -> anyhow::Result<Self> {
+    pub fn read(dir: &Path) -> Result<Self> {
         let (path, text, value) = read_config(dir)?;
         let header = text.lines().next().unwrap_or("");
         // Commas would split the policy's CSV field (older scripted:A,B,C,D names).
         let policy = header_policy(header)
             .map(|p| p.replace(',', ":"))
             .ok_or_else(|| {
-                anyhow!(
+                ReportError::Invalid(format!(
                     "{}: the first line names no policy: is it a rollout directory?",
                     path.display()
-                )
+                ))
             })?;
         let scale = inlet_scale(&value);
         let peak = value
@@ -150,13 +152,13 @@ impl MapRun {
             })
             .unwrap_or(f64::NAN);
         let episodes = Csv::read(&dir.join("episodes.csv"))?;
-        let starts = Csv::read(&dir.join("starts.csv")).with_context(|| {
+        let starts = Csv::read(&dir.join("starts.csv")).within(|| {
             format!(
                 "{} has no starts.csv: re-run it with this version's rollout",
                 dir.display()
             )
         })?;
-        let key = |c: &Csv| -> anyhow::Result<Vec<(u64, u64)>> {
+        let key = |c: &Csv| -> Result<Vec<(u64, u64)>> {
             let env = c.column::<u64>("env")?;
             Ok(env.into_iter().zip(c.column::<u64>("episode")?).collect())
         };
@@ -177,12 +179,12 @@ impl MapRun {
         let mut list = Vec::with_capacity(steps.len());
         for (r, k) in key(&episodes)?.into_iter().enumerate() {
             let &(phase, x0) = start_of.get(&k).ok_or_else(|| {
-                anyhow!(
+                ReportError::Invalid(format!(
                     "{}: episode {} of environment {} has no row in starts.csv",
                     dir.display(),
                     k.1,
                     k.0
-                )
+                ))
             })?;
             list.push(MapEpisode {
                 steps: steps[r],
@@ -263,7 +265,7 @@ pub struct WallDrag {
 
 impl WallDrag {
     /// Reads a probe directory (`trajectories.csv` of member 0, steps 1 and later).
-    pub fn read(dir: &Path) -> anyhow::Result<Self> {
+    pub fn read(dir: &Path) -> Result<Self> {
         let scale = inlet_scale(&read_config(dir)?.2);
         let t = Csv::read(&dir.join("trajectories.csv"))?;
         let (step, member) = (t.column::<u64>("step")?, t.column::<u64>("member")?);
@@ -276,10 +278,10 @@ impl WallDrag {
             .map(|r| (h[r] + d[r]) * 1e-9)
             .collect();
         if force_n.is_empty() {
-            bail!(
+            return Err(ReportError::Invalid(format!(
                 "{}: trajectories.csv has no steps of member 0",
                 dir.display()
-            );
+            )));
         }
         Ok(Self { scale, force_n })
     }
@@ -300,15 +302,18 @@ impl WallDrag {
 
 /// Every run directory below `root` (a directory holding episodes.csv and starts.csv), in
 /// path order, and the wall-drag probes under `root/wall_drag`.
-pub fn load(root: &Path) -> anyhow::Result<(Vec<MapRun>, Vec<WallDrag>)> {
+pub fn load(root: &Path) -> Result<(Vec<MapRun>, Vec<WallDrag>)> {
     let mut runs = Vec::new();
     let mut probes = Vec::new();
     let mut stack = vec![root.to_path_buf()];
     while let Some(dir) = stack.pop() {
-        let entries =
-            std::fs::read_dir(&dir).with_context(|| format!("listing {}", dir.display()))?;
-        for entry in entries {
-            let path = entry?.path();
+        let listing = |cause| ReportError::Read {
+            path: dir.clone(),
+            cause,
+            hint: " (listing the directory)".into(),
+        };
+        for entry in std::fs::read_dir(&dir).map_err(listing)? {
+            let path = entry.map_err(listing)?.path();
             if path.is_dir() {
                 stack.push(path);
             }
@@ -321,11 +326,11 @@ pub fn load(root: &Path) -> anyhow::Result<(Vec<MapRun>, Vec<WallDrag>)> {
         }
     }
     if runs.is_empty() {
-        bail!(
+        return Err(ReportError::Usage(format!(
             "{} holds no rollout directories with episodes.csv and starts.csv: run \
              experiments/controllability_map.sh first",
             root.display()
-        );
+        )));
     }
     runs.sort_by(|a, b| a.dir.cmp(&b.dir));
     probes.sort_by(|a, b| a.scale.total_cmp(&b.scale));

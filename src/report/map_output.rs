@@ -11,7 +11,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::Context;
+use super::error::{Result, Within};
 
 use super::heatmap::{self, HeatAxes, HeatPanel, Scale, ScatterPanel};
 use super::map::{Cell, WallDrag, is_constant, probe_for, wall_angle_deg};
@@ -173,7 +173,7 @@ fn label(v: f64) -> String {
 }
 
 /// Writes the three figures into `out`; returns their file names.
-pub fn figures(cells: &[Cell], probes: &[WallDrag], out: &Path) -> anyhow::Result<Vec<String>> {
+pub fn figures(cells: &[Cell], probes: &[WallDrag], out: &Path) -> Result<Vec<String>> {
     let mut scales: Vec<f64> = cells.iter().map(|c| c.scale).collect();
     let mut thrusts: Vec<f64> = cells.iter().map(|c| c.max_thrust_n).collect();
     for v in [&mut scales, &mut thrusts] {
@@ -229,7 +229,7 @@ pub fn figures(cells: &[Cell], probes: &[WallDrag], out: &Path) -> anyhow::Resul
             "Success rate (successes/episodes, up to {n} per cell; random phase and start jitter), white 0 to blue 1"
         ),
     )
-    .with_context(|| format!("drawing {name}"))?;
+    .within(|| format!("drawing {name}"))?;
     written.push(name.to_string());
 
     let pts = points(cells);

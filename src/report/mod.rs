@@ -14,6 +14,7 @@
 
 pub mod analysis;
 pub mod data;
+pub mod error;
 pub mod heatmap;
 pub mod map;
 pub mod map_output;
@@ -24,7 +25,7 @@ pub mod sweep;
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, bail};
+use error::{ReportError, Result, Within};
 
 use analysis::{METRICS, group_curve, swarm_over_time, update_series};
 use data::{RolloutRun, SwarmStep, TrainRun};
@@ -64,18 +65,23 @@ pub fn group_label(runs: &[TrainRun]) -> String {
     }
 }
 
-pub fn load(inputs: &Inputs) -> anyhow::Result<Loaded> {
+pub fn load(inputs: &Inputs) -> Result<Loaded> {
     if inputs.runs.is_empty() {
-        bail!("report needs at least one train run directory");
+        return Err(ReportError::Usage(
+            "report needs at least one train run directory".into(),
+        ));
     }
     if inputs.before.is_some() != inputs.after.is_some() {
-        bail!("--before and --after go together: give both rollout/eval directories, or neither");
+        return Err(ReportError::Usage(
+            "--before and --after go together: give both rollout/eval directories, or neither"
+                .into(),
+        ));
     }
-    let train = |dirs: &[PathBuf]| -> anyhow::Result<Vec<TrainRun>> {
+    let train = |dirs: &[PathBuf]| -> Result<Vec<TrainRun>> {
         dirs.iter().map(|d| TrainRun::read(d)).collect()
     };
-    let rollout = |d: &Path| -> anyhow::Result<RolloutRun> {
-        RolloutRun::read(d).with_context(|| format!("{} as a rollout/eval directory", d.display()))
+    let rollout = |d: &Path| -> Result<RolloutRun> {
+        RolloutRun::read(d).within(|| format!("{} as a rollout/eval directory", d.display()))
     };
     let before_after = match (&inputs.before, &inputs.after) {
         (Some(b), Some(a)) => Some((rollout(b)?, rollout(a)?)),
@@ -94,15 +100,14 @@ pub fn load(inputs: &Inputs) -> anyhow::Result<Loaded> {
 }
 
 /// Writes the figures and `report.md` into `out`; returns the figure file names.
-pub fn write(loaded: &Loaded, out: &Path) -> anyhow::Result<Vec<String>> {
-    std::fs::create_dir_all(out).with_context(|| {
-        format!(
-            "creating {}: choose a writable --out directory",
-            out.display()
-        )
+pub fn write(loaded: &Loaded, out: &Path) -> Result<Vec<String>> {
+    std::fs::create_dir_all(out).map_err(|cause| ReportError::Write {
+        path: out.to_path_buf(),
+        cause,
+        hint: ": choose a writable --out directory".into(),
     })?;
     let mut figures = Vec::new();
-    let mut save = |name: &str, panels: Vec<Panel>| -> anyhow::Result<()> {
+    let mut save = |name: &str, panels: Vec<Panel>| -> Result<()> {
         plot::save(&out.join(name), &panels)?;
         figures.push(name.to_string());
         Ok(())
@@ -140,8 +145,8 @@ pub fn write(loaded: &Loaded, out: &Path) -> anyhow::Result<Vec<String>> {
         )?;
     }
     let md = markdown::report(loaded, &figures);
-    std::fs::write(out.join("report.md"), md)
-        .with_context(|| format!("writing {}", out.join("report.md").display()))?;
+    let md_path = out.join("report.md");
+    std::fs::write(&md_path, md).map_err(ReportError::write(&md_path))?;
     Ok(figures)
 }
 

@@ -6,7 +6,7 @@
 use std::path::Path;
 use std::sync::OnceLock;
 
-use anyhow::{Context, anyhow};
+use super::error::{ReportError, Result};
 use image::ImageEncoder;
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use plotters::element::ComposedElement;
@@ -82,13 +82,14 @@ pub struct Panel {
     pub legend: bool,
 }
 
-fn register_font() -> anyhow::Result<()> {
+fn register_font() -> Result<()> {
     static OK: OnceLock<bool> = OnceLock::new();
     let ok = *OK.get_or_init(|| {
         plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok()
     });
-    ok.then_some(())
-        .ok_or_else(|| anyhow!("the embedded font (assets/fonts/DejaVuSans.ttf) did not load"))
+    ok.then_some(()).ok_or_else(|| {
+        ReportError::Invalid("the embedded font (assets/fonts/DejaVuSans.ttf) did not load".into())
+    })
 }
 
 /// Padded (min, max) of finite values; a unit range around a single value.
@@ -148,7 +149,7 @@ fn tick(v: f64, d: usize) -> String {
 }
 
 /// Draws the panels stacked into `path` (WIDTH x panels * PANEL_HEIGHT px).
-pub fn save(path: &Path, panels: &[Panel]) -> anyhow::Result<()> {
+pub fn save(path: &Path, panels: &[Panel]) -> Result<()> {
     let (w, h) = (WIDTH, PANEL_HEIGHT * panels.len().max(1) as u32);
     save_rgb(path, (w, h), |buf| draw(buf, (w, h), panels))
 }
@@ -158,16 +159,18 @@ pub fn save_rgb(
     path: &Path,
     (w, h): (u32, u32),
     draw: impl FnOnce(&mut [u8]) -> Result<(), Box<dyn std::error::Error>>,
-) -> anyhow::Result<()> {
+) -> Result<()> {
     register_font()?;
     let mut buf = vec![0u8; (w * h * 3) as usize];
-    draw(&mut buf).map_err(|e| anyhow!("drawing {}: {e}", path.display()))?;
+    draw(&mut buf).map_err(|e| ReportError::Draw {
+        path: path.to_path_buf(),
+        why: e.to_string(),
+    })?;
     // Best compression: figures are committed and shown in READMEs.
-    let file = std::fs::File::create(path).with_context(|| {
-        format!(
-            "writing {}: is the --out directory writable?",
-            path.display()
-        )
+    let file = std::fs::File::create(path).map_err(|cause| ReportError::Write {
+        path: path.to_path_buf(),
+        cause,
+        hint: ": is the --out directory writable?".into(),
     })?;
     let encoder = PngEncoder::new_with_quality(
         std::io::BufWriter::new(file),
@@ -176,7 +179,10 @@ pub fn save_rgb(
     );
     encoder
         .write_image(&buf, w, h, image::ExtendedColorType::Rgb8)
-        .with_context(|| format!("writing {}", path.display()))
+        .map_err(|e| ReportError::Draw {
+            path: path.to_path_buf(),
+            why: format!("encoding the PNG: {e}"),
+        })
 }
 
 fn draw(

@@ -13,7 +13,7 @@
 
 use std::path::Path;
 
-use anyhow::{Context, bail};
+use super::error::{ReportError, Result};
 
 use super::data::{RunInfo, read_episodes};
 use super::heatmap::{self, HeatAxes, HeatPanel, Scale};
@@ -48,23 +48,28 @@ pub struct SweepSummary {
 }
 
 /// Reads `root/sweep.csv` and every done run's episodes.
-pub fn load(root: &Path) -> anyhow::Result<SweepSummary> {
+pub fn load(root: &Path) -> Result<SweepSummary> {
     let path = root.join("sweep.csv");
-    let mut reader = csv::Reader::from_path(&path).with_context(|| {
-        format!(
-            "reading {} (is {} a sweep directory? `fluxswarm-gpu sweep --status --out {}` \
+    let bad_csv = |e: csv::Error| ReportError::Invalid(format!("reading {}: {e}", path.display()));
+    let mut reader = csv::Reader::from_path(&path).map_err(|e| {
+        ReportError::Usage(format!(
+            "reading {}: {e} (is {} a sweep directory? `fluxswarm-gpu sweep --status --out {}` \
              refreshes the table)",
             path.display(),
             root.display(),
             root.display()
-        )
+        ))
     })?;
-    let header: Vec<String> = reader.headers()?.iter().map(String::from).collect();
+    let header: Vec<String> = reader
+        .headers()
+        .map_err(bad_csv)?
+        .iter()
+        .map(String::from)
+        .collect();
     let col = |name: &str| {
-        header
-            .iter()
-            .position(|h| h == name)
-            .with_context(|| format!("{} has no column `{name}`", path.display()))
+        header.iter().position(|h| h == name).ok_or_else(|| {
+            ReportError::Invalid(format!("{} has no column `{name}`", path.display()))
+        })
     };
     let (point_c, status_c, dir_c, over_c, commit_c) = (
         col("point")?,
@@ -78,10 +83,14 @@ pub fn load(root: &Path) -> anyhow::Result<SweepSummary> {
     let mut per_seed: Vec<Vec<[f64; 3]>> = Vec::new();
     let mut success_steps: Vec<Vec<f64>> = Vec::new();
     for row in reader.records() {
-        let row = row.with_context(|| format!("reading {}", path.display()))?;
-        let point: usize = row[point_c]
-            .parse()
-            .context("a `point` that is not a number")?;
+        let row = row.map_err(bad_csv)?;
+        let point: usize = row[point_c].parse().map_err(|_| {
+            ReportError::Invalid(format!(
+                "{}: point {:?} is not a number",
+                path.display(),
+                &row[point_c]
+            ))
+        })?;
         if point >= points.len() {
             points.resize_with(point + 1, || PointSummary {
                 point: 0,
@@ -105,8 +114,8 @@ pub fn load(root: &Path) -> anyhow::Result<SweepSummary> {
         }
         let dir = root.join(&row[dir_c]);
         let episodes_path = dir.join("episodes.csv");
-        let first = std::fs::read_to_string(&episodes_path)
-            .with_context(|| format!("reading {}", episodes_path.display()))?;
+        let first =
+            std::fs::read_to_string(&episodes_path).map_err(ReportError::read(&episodes_path))?;
         let train = first.starts_with("global_step,");
         let mut episodes = read_episodes(&episodes_path, train)?;
         if train && episodes.len() > FINAL_EPISODES {
@@ -141,7 +150,10 @@ pub fn load(root: &Path) -> anyhow::Result<SweepSummary> {
         p.time_to_success_s = (!t.is_empty()).then(|| t.iter().sum::<f64>() / t.len() as f64);
     }
     if points.is_empty() {
-        bail!("{} lists no runs", path.display());
+        return Err(ReportError::Invalid(format!(
+            "{} lists no runs",
+            path.display()
+        )));
     }
     Ok(SweepSummary { keys, points })
 }
@@ -209,7 +221,8 @@ pub fn markdown(s: &SweepSummary, root: &Path) -> String {
 }
 
 /// `sweep_points.csv`.
-pub fn points_csv(s: &SweepSummary) -> anyhow::Result<Vec<u8>> {
+pub fn points_csv(s: &SweepSummary) -> Result<Vec<u8>> {
+    let bad = |e: csv::Error| ReportError::Invalid(format!("sweep_points.csv: {e}"));
     let mut w = csv::Writer::from_writer(Vec::new());
     let mut head = vec!["point".to_string()];
     head.extend(s.keys.iter().cloned());
@@ -232,7 +245,7 @@ pub fn points_csv(s: &SweepSummary) -> anyhow::Result<Vec<u8>> {
         ]
         .map(String::from),
     );
-    w.write_record(&head)?;
+    w.write_record(&head).map_err(bad)?;
     for p in &s.points {
         let (lo, hi) = wilson95(p.successes, p.episodes);
         let rate = if p.episodes > 0 {
@@ -251,13 +264,14 @@ pub fn points_csv(s: &SweepSummary) -> anyhow::Result<Vec<u8>> {
             p.time_to_success_s
                 .map_or(String::new(), |t| format!("{t:.6}")),
         );
-        w.write_record(&row)?;
+        w.write_record(&row).map_err(bad)?;
     }
-    w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))
+    w.into_inner()
+        .map_err(|e| ReportError::Invalid(format!("sweep_points.csv: {e}")))
 }
 
 /// Writes report.md, sweep_points.csv and the figures into `out`; returns the figures' names.
-pub fn write(root: &Path, out: &Path) -> anyhow::Result<Vec<String>> {
+pub fn write(root: &Path, out: &Path) -> Result<Vec<String>> {
     let s = load(root)?;
     let mut figures = Vec::new();
     match s.keys.len() {
@@ -279,9 +293,9 @@ pub fn write(root: &Path, out: &Path) -> anyhow::Result<Vec<String>> {
     for f in &figures {
         md += &format!("\n![{f}]({f})\n");
     }
-    std::fs::write(out.join("report.md"), md).context("writing report.md")?;
-    std::fs::write(out.join("sweep_points.csv"), points_csv(&s)?)
-        .context("writing sweep_points.csv")?;
+    let (md_path, csv_path) = (out.join("report.md"), out.join("sweep_points.csv"));
+    std::fs::write(&md_path, md).map_err(ReportError::write(&md_path))?;
+    std::fs::write(&csv_path, points_csv(&s)?).map_err(ReportError::write(&csv_path))?;
     Ok(figures)
 }
 
@@ -294,7 +308,7 @@ fn positions(values: &[String]) -> (Vec<f64>, bool) {
     }
 }
 
-fn lines(s: &SweepSummary, path: &Path) -> anyhow::Result<()> {
+fn lines(s: &SweepSummary, path: &Path) -> Result<()> {
     let values: Vec<String> = s.points.iter().map(|p| p.values[0].clone()).collect();
     let (x, numeric) = positions(&values);
     let x_desc = if numeric {
@@ -372,7 +386,7 @@ fn lines(s: &SweepSummary, path: &Path) -> anyhow::Result<()> {
     )
 }
 
-fn heat(s: &SweepSummary, path: &Path) -> anyhow::Result<()> {
+fn heat(s: &SweepSummary, path: &Path) -> Result<()> {
     let distinct = |k: usize| {
         let mut v: Vec<String> = Vec::new();
         for p in &s.points {

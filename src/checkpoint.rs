@@ -13,26 +13,46 @@ use safetensors::tensor::{Dtype, SafeTensors, TensorView};
 /// Bumped whenever the set or meaning of the saved arrays changes.
 pub const FORMAT: u32 = 1;
 
+/// Why a checkpoint could not be written, read or used.
 #[derive(Debug, thiserror::Error)]
 pub enum CheckpointError {
+    /// The file could not be read.
     #[error("cannot read checkpoint {path}: {source}")]
     Read {
+        /// Path of the checkpoint file.
         path: PathBuf,
+        /// The I/O error.
         source: std::io::Error,
     },
+    /// The file (or its temporary file) could not be written, synced or renamed.
     #[error("cannot write checkpoint {path}: {source} (is the output directory writable?)")]
     Write {
+        /// Path of the checkpoint file.
         path: PathBuf,
+        /// The I/O error.
         source: std::io::Error,
     },
+    /// The file is not a valid archive: bad safetensors, missing format tag, checksum,
+    /// metadata or array, or an array of the wrong type.
     #[error(
         "checkpoint {path} is corrupt ({why}); resume from an earlier file in the same checkpoints/ directory or start a new run"
     )]
-    Corrupt { path: PathBuf, why: String },
+    Corrupt {
+        /// Path of the checkpoint file.
+        path: PathBuf,
+        /// What is wrong with it.
+        why: String,
+    },
+    /// The file is intact but does not fit this run (format version, array sizes, settings).
     #[error(
         "checkpoint {path} does not fit this run: {why}; use the configuration it was written with (train --resume uses it automatically)"
     )]
-    Mismatch { path: PathBuf, why: String },
+    Mismatch {
+        /// Path of the checkpoint file.
+        path: PathBuf,
+        /// What does not fit.
+        why: String,
+    },
 }
 
 #[derive(Debug, Clone)]
@@ -55,22 +75,29 @@ const CRC_KEY: &str = "crc32";
 const FORMAT_KEY: &str = "format";
 
 impl Archive {
+    /// An empty archive.
     pub fn new() -> Self {
         Self::default()
     }
 
+    /// The file the archive was loaded from (empty for a new one).
     pub fn path(&self) -> &Path {
         &self.path
     }
 
+    /// Stores f32 array `name` of `shape`, replacing one of that name.
+    /// Panics if `shape` does not fit `data`.
     pub fn put_f32(&mut self, name: &str, shape: &[usize], data: &[f32]) {
         self.put(name, Dtype::F32, shape, bytemuck::cast_slice(data));
     }
 
+    /// Stores f64 array `name` of `shape`, replacing one of that name.
+    /// Panics if `shape` does not fit `data`.
     pub fn put_f64(&mut self, name: &str, shape: &[usize], data: &[f64]) {
         self.put(name, Dtype::F64, shape, bytemuck::cast_slice(data));
     }
 
+    /// Stores u64 array `name`, one-dimensional.
     pub fn put_u64(&mut self, name: &str, data: &[u64]) {
         self.put(name, Dtype::U64, &[data.len()], bytemuck::cast_slice(data));
     }
@@ -91,6 +118,7 @@ impl Archive {
         );
     }
 
+    /// Sets metadata `key` to `value` as text.
     pub fn set_meta(&mut self, key: &str, value: impl ToString) {
         self.meta.insert(key.to_string(), value.to_string());
     }
@@ -145,11 +173,13 @@ impl Archive {
         Ok(bytemuck::pod_collect_to_vec(&e.bytes))
     }
 
+    /// Array `name` as f64, checked to hold `len` values (None: any length).
     pub fn f64(&self, name: &str, len: Option<usize>) -> Result<Vec<f64>, CheckpointError> {
         let e = self.entry(name, Dtype::F64, len)?;
         Ok(bytemuck::pod_collect_to_vec(&e.bytes))
     }
 
+    /// Array `name` as u64, checked to hold `len` values (None: any length).
     pub fn u64(&self, name: &str, len: Option<usize>) -> Result<Vec<u64>, CheckpointError> {
         let e = self.entry(name, Dtype::U64, len)?;
         Ok(bytemuck::pod_collect_to_vec(&e.bytes))
@@ -226,6 +256,7 @@ impl Archive {
         Self::from_bytes(&bytes, path)
     }
 
+    /// Parses and verifies safetensors bytes (format tag and CRC); `path` names them in errors.
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self, CheckpointError> {
         let corrupt = |why: String| CheckpointError::Corrupt {
             path: path.to_path_buf(),

@@ -3,14 +3,20 @@
 //! state can be saved with a checkpoint. `Rng::new(seed)` mixes the seed; `Rng(state)` starts
 //! from a raw state.
 
+/// A SplitMix64 generator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Rng(pub u64);
+pub struct Rng(
+    /// The whole state (what a checkpoint saves).
+    pub u64,
+);
 
 impl Rng {
+    /// A generator seeded with `seed`, mixed with a fixed constant.
     pub fn new(seed: u64) -> Self {
         Self(seed ^ 0x5DEE_CE66_D1CE_4E5B)
     }
 
+    /// The next 64 uniformly distributed bits.
     pub fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;

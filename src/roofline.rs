@@ -32,8 +32,10 @@ pub enum FmaKernel {
 }
 
 impl FmaKernel {
+    /// Every FMA loop, widest first.
     pub const ALL: [FmaKernel; 3] = [FmaKernel::Avx512, FmaKernel::Avx2, FmaKernel::Portable];
 
+    /// Human-readable name of the loop.
     pub fn name(self) -> &'static str {
         match self {
             FmaKernel::Avx512 => "avx512 fma",
@@ -294,17 +296,22 @@ impl Default for PeakSizes {
 /// This machine's peaks on all rayon threads.
 #[derive(Debug, Clone)]
 pub struct Peaks {
+    /// Rayon threads the peaks were measured on.
     pub threads: usize,
     /// GFlop/s of every FMA loop this CPU runs, widest first.
     pub fma: Vec<(FmaKernel, f64)>,
     /// Triad GB/s in cache and out of cache, and the code that ran them.
     pub triad_in_cache: f64,
+    /// Triad GB/s out of cache.
     pub triad_out_of_cache: f64,
+    /// The triad code that ran: `avx2` or `build target`.
     pub triad_kernel: &'static str,
+    /// Array sizes and time per measurement used.
     pub sizes: PeakSizes,
 }
 
 impl Peaks {
+    /// Times the FMA loops and both triads on every rayon thread.
     pub fn measure(sizes: PeakSizes) -> Self {
         let threads = rayon::current_num_threads();
         let fma = FmaKernel::ALL

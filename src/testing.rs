@@ -28,8 +28,10 @@ pub struct PointMasses {
 }
 
 impl PointMasses {
+    /// Steps after which every episode is truncated.
     pub const MAX_STEPS: u32 = 40;
 
+    /// `envs` environments of `agents` point masses each, started from `seed`.
     pub fn new(envs: usize, agents: usize, seed: u64) -> Self {
         Self {
             envs,

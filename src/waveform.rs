@@ -6,12 +6,20 @@ use std::path::Path;
 
 use thiserror::Error;
 
+/// Why a waveform could not be built.
 #[derive(Debug, Error)]
 pub enum WaveformError {
+    /// The period or the control points are invalid; the message says which.
     #[error("inlet waveform: {0}")]
     Invalid(String),
+    /// The CSV file could not be read or parsed.
     #[error("inlet waveform CSV {path}: {message}")]
-    Csv { path: String, message: String },
+    Csv {
+        /// Path of the CSV file.
+        path: String,
+        /// What is wrong with it.
+        message: String,
+    },
 }
 
 /// A periodic piecewise-linear waveform.
@@ -99,10 +107,12 @@ impl Waveform {
         self
     }
 
+    /// Period T (s).
     pub fn period_s(&self) -> f64 {
         self.period_s
     }
 
+    /// Control points (t (s), U (m/s)), in increasing t.
     pub fn points(&self) -> &[(f64, f64)] {
         &self.points
     }

@@ -2,7 +2,7 @@
 //! named with its unit. `configs/paper.toml` is embedded as the default; a user file is merged
 //! over it key by key, then `--set section.key=value` overrides are applied, then everything is
 //! validated (ranges, waveform, diffusion number, CFL number) before any GPU work.
-//! The keys are [`schema`], the checks [`validate`], file merging and `--set` [`overrides`].
+//! The keys are `schema`, the checks `validate`, file merging and `--set` `overrides`.
 
 mod overrides;
 mod schema;
@@ -18,11 +18,11 @@ use thiserror::Error;
 
 use crate::waveform::{Waveform, WaveformError};
 
-/// The paper's setup, embedded.
 /// Keys a run saved with its checkpoint may still change: how the control step runs, not what
 /// it computes (the backends agree within the kernel tests' tolerance).
 pub const RUN_KEYS: [&str; 2] = ["solver.backend", "solver.pressure_sweep"];
 
+/// Text of `configs/paper.toml`, the default configuration, embedded at compile time.
 pub const PAPER_TOML: &str = include_str!("../../configs/paper.toml");
 
 /// Largest explicit-diffusion number nu dt (1/dx^2 + 1/dy^2) / 2 accepted (FTCS stability).
@@ -41,25 +41,52 @@ pub const MAX_NY: u32 = 256;
 /// Keys that may be absent from the default configuration but can be set.
 const OPTIONAL_KEYS: &[(&str, &str)] = &[("inlet", "csv")];
 
+/// Why a configuration could not be loaded, merged or validated.
 #[derive(Debug, Error)]
 pub enum ConfigError {
+    /// The configuration file could not be read.
     #[error("cannot read config file {path}: {source}")]
     Read {
+        /// Path of the file.
         path: String,
+        /// The I/O error.
         source: std::io::Error,
     },
+    /// The file (or a saved configuration) is not valid TOML.
     #[error("config file {path} is not valid TOML: {message}")]
-    Syntax { path: String, message: String },
-    #[error("--set {arg}: {message}")]
-    Set { arg: String, message: String },
-    #[error("config key `{key}`: {message}")]
-    Key { key: String, message: String },
-    #[error("config key `{key}` = {value}: {message}")]
-    Range {
-        key: String,
-        value: String,
+    Syntax {
+        /// Path of the file, or `saved configuration`.
+        path: String,
+        /// The TOML parser's message.
         message: String,
     },
+    /// A `--set` override is malformed or names an unknown section or key.
+    #[error("--set {arg}: {message}")]
+    Set {
+        /// The override as given, `section.key=value`.
+        arg: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A key is unknown, missing or of the wrong type when the table is deserialised.
+    #[error("config key `{key}`: {message}")]
+    Key {
+        /// Dotted path of the key.
+        key: String,
+        /// The deserialiser's message.
+        message: String,
+    },
+    /// A value lies outside its range or is inconsistent with other keys.
+    #[error("config key `{key}` = {value}: {message}")]
+    Range {
+        /// Dotted key (or section) that fails.
+        key: String,
+        /// The offending value, as text.
+        value: String,
+        /// The limit broken, or the fix.
+        message: String,
+    },
+    /// The inlet waveform is invalid.
     #[error(transparent)]
     Waveform(#[from] WaveformError),
 }
@@ -67,7 +94,9 @@ pub enum ConfigError {
 /// A validated configuration with its waveform resolved.
 #[derive(Debug, Clone)]
 pub struct Resolved {
+    /// The validated configuration.
     pub config: Config,
+    /// The inlet centreline-velocity waveform, already scaled by `inlet.scale`.
     pub waveform: Waveform,
 }
 
@@ -130,18 +159,22 @@ impl Config {
         config.resolve()
     }
 
+    /// Cell width along x, L / nx (m).
     pub fn dx(&self) -> f64 {
         self.domain.length_m / self.domain.nx as f64
     }
 
+    /// Cell height across the channel, H / ny (m).
     pub fn dy(&self) -> f64 {
         self.domain.height_m / self.domain.ny as f64
     }
 
+    /// Fluid substep, control_dt_s / substeps (s).
     pub fn dt_sub(&self) -> f64 {
         self.time.control_dt_s / self.time.substeps as f64
     }
 
+    /// Kinematic viscosity nu = mu / rho (m^2/s).
     pub fn kinematic_viscosity(&self) -> f64 {
         self.fluid.viscosity_pa_s / self.fluid.density_kg_m3
     }

@@ -5,16 +5,25 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
+/// The whole run configuration, one field per TOML section.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Config {
+    /// `[domain]`: channel size, grid and analysis region.
     pub domain: Domain,
+    /// `[fluid]`: fluid properties.
     pub fluid: Fluid,
+    /// `[time]`: control step and fluid substeps.
     pub time: Time,
+    /// `[inlet]`: the periodic inlet centreline-velocity waveform.
     pub inlet: Inlet,
+    /// `[swarm]`: the members and their placement.
     pub swarm: Swarm,
+    /// `[env]`: episode settings.
     pub env: EnvConfig,
+    /// `[train]`: learner hyperparameters.
     pub train: Train,
+    /// `[solver]`: numerical schemes and where the control step runs.
     pub solver: Solver,
 }
 
@@ -22,16 +31,27 @@ pub struct Config {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Train {
+    /// Control steps per environment per update.
     pub rollout_steps: u32,
+    /// Passes over each rollout per update.
     pub epochs: u32,
+    /// Minibatches per epoch, at any number of environments.
     pub minibatches: u32,
+    /// Discount factor, in [0, 1].
     pub gamma: f64,
+    /// GAE lambda, in [0, 1].
     pub lambda: f64,
+    /// Adam learning rate of actor and critic.
     pub learning_rate: f64,
+    /// PPO clip range eps of the probability ratio.
     pub clip: f64,
+    /// Weight of the entropy bonus (non-negative).
     pub entropy_coef: f64,
+    /// Largest gradient norm; actor and critic are clipped separately.
     pub max_grad_norm: f64,
+    /// PCGrad surgery of the three actor gradients; false averages them (the ablation).
     pub pcgrad: bool,
+    /// Normalise advantages per objective, per rollout.
     pub normalize_advantages: bool,
     /// Running mean/std normalisation of the networks' inputs (saved with checkpoints).
     pub normalize_observations: bool,
@@ -67,45 +87,64 @@ pub struct EnvConfig {
 #[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum EnergyReward {
+    /// The paper's energy reward, F . dr / (F_max |dr|).
     #[default]
     Paper,
+    /// Only the work towards upstream motion, F_x min(dr_x, 0) / (F_max |dr|).
     Upstream,
 }
 
+/// `[domain]`: the channel, its grid and the analysis region.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Domain {
+    /// Channel length L along x (m).
     pub length_m: f64,
+    /// Channel height H along y (m).
     pub height_m: f64,
+    /// Cells along x (dx = L / nx), at least 4.
     pub nx: u32,
+    /// Cells across the height (dy = H / ny), 2 to 256.
     pub ny: u32,
+    /// Success line x_s (m): the episode succeeds once the swarm's centre of mass has x < x_s.
     pub success_x_m: f64,
+    /// Failure line x_f (m): the episode fails once any member has x > x_f.
     pub failure_x_m: f64,
 }
 
+/// `[fluid]`: properties of the fluid.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Fluid {
+    /// Fluid density rho (kg/m^3).
     pub density_kg_m3: f64,
+    /// Dynamic viscosity mu (Pa s).
     pub viscosity_pa_s: f64,
 }
 
+/// `[time]`: time stepping.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Time {
+    /// Length of one control step (s).
     pub control_dt_s: f64,
+    /// Fluid substeps per control step (dt_sub = control_dt_s / substeps).
     pub substeps: u32,
 }
 
+/// `[inlet]`: the periodic, piecewise-linear inlet centreline velocity U(t).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Inlet {
+    /// Period of the waveform (s); control points' times lie in [0, period_s].
     pub period_s: f64,
+    /// Control points [t (s), U (m/s)], strictly increasing in time.
     #[serde(default)]
     pub points: Vec<[f64; 2]>,
     /// CSV file of control points (header `t_s,u_m_per_s`); replaces `points` when given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub csv: Option<PathBuf>,
+    /// Start each episode at a random phase of the waveform instead of t = 0.
     #[serde(default)]
     pub random_phase: bool,
     /// Multiplies every waveform velocity (points or CSV), so a scenario can scale the flow
@@ -118,6 +157,7 @@ fn unit_scale() -> f64 {
     1.0
 }
 
+/// Advection scheme of the fluid step.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum Advection {
@@ -144,21 +184,33 @@ pub enum Layout {
     Explicit,
 }
 
+/// `[swarm]`: the micro-robots and their placement at reset.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Swarm {
+    /// Members per environment N (0: no swarm; at most [`MAX_MEMBERS`]).
     pub count: u32,
+    /// Sphere radius r (m), seen in 2D as a disc.
     pub radius_m: f64,
+    /// Member density rho_s (kg/m^3); mass is 4/3 pi r^3 rho_s.
     pub density_kg_m3: f64,
+    /// Largest propulsion force F_max (N): |F_prop| <= F_max.
     pub max_thrust_n: f64,
+    /// How members are placed at reset.
     pub layout: Layout,
+    /// Rows of the `grid` layout; `count` must be a multiple of it.
     pub grid_rows: u32,
+    /// Centre-to-centre spacing of the `grid` layout, in x and y (m).
     pub grid_spacing_m: f64,
+    /// x of the `grid` layout's centre (m); it is centred on mid-height in y.
     pub grid_centre_x_m: f64,
+    /// Member centres [x, y] (m), one per member, for the `explicit` layout.
     #[serde(default)]
     pub positions_m: Vec<[f64; 2]>,
+    /// Indices of members held fixed (their forces are still computed).
     #[serde(default)]
     pub pinned: Vec<u32>,
+    /// Schiller-Naumann drag on top of the resolved pressure force.
     pub drag: bool,
 }
 
@@ -203,10 +255,13 @@ pub enum Backtrace {
     Rk2,
 }
 
+/// `[solver]`: numerical schemes and the backend of the control step.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Solver {
+    /// Advection scheme.
     pub advection: Advection,
+    /// Order of the semi-Lagrangian backtrace.
     pub backtrace: Backtrace,
     /// Where the control step runs (default: the adapter).
     #[serde(default)]

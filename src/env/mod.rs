@@ -1,6 +1,6 @@
 //! The batched swarm environment of SPEC section 3: E channels with N members each, advanced
-//! one control step per `step(actions [E][N][2])`, returning observations [E][N][8], rewards
-//! [E][N][3] (progress, energy, smoothness), separate terminated/truncated flags, the final
+//! one control step per `step(actions [E][N][2])`, returning observations `[E][N][8]`, rewards
+//! `[E][N][3]` (progress, energy, smoothness), separate terminated/truncated flags, the final
 //! observation of every episode that ended (environments auto-reset independently) and the
 //! finished episodes' metrics. One read-back per control step (health + members + forces).
 //!
@@ -22,6 +22,7 @@ use crate::sim::{FlowBatch, SimError};
 
 /// Values per observation, per reward.
 pub const OBS_DIM: usize = 8;
+/// Reward objectives per agent: progress, energy, smoothness.
 pub const N_OBJECTIVES: usize = 3;
 /// Pressure scale of the observation (Pa).
 pub const PRESSURE_SCALE_PA: f64 = 1000.0;
@@ -30,12 +31,15 @@ pub const PRESSURE_SCALE_PA: f64 = 1000.0;
 /// swarm's state for logging.
 #[derive(Debug, Clone)]
 pub struct StepOutput {
+    /// The batched transition: observations, rewards, end flags, final observations, episode metrics.
     pub transition: Transition,
-    /// Members and their forces at the end of this step, before any reset, [E][N].
+    /// Members and their forces at the end of this step, before any reset, `[E][N]`.
     pub members: Vec<GpuMember>,
+    /// Forces and pressure samples of each member over this step, `[E][N]`.
     pub forces: Vec<GpuMemberDiag>,
     /// Episode index and step within it (after this step) of each environment, before reset.
     pub episode: Vec<u64>,
+    /// Step count within the episode after this step, per environment `[E]`, before reset.
     pub episode_step: Vec<u32>,
 }
 
@@ -88,10 +92,12 @@ impl SwarmEnv {
         })
     }
 
+    /// Number of environments E.
     pub fn n_env(&self) -> usize {
         self.n_env
     }
 
+    /// Number of members (agents) N per environment.
     pub fn n_agents(&self) -> usize {
         self.n
     }
@@ -101,6 +107,7 @@ impl SwarmEnv {
         &self.resolved
     }
 
+    /// The underlying flow batch.
     pub fn batch(&self) -> &dyn FlowBatch {
         self.batch.as_ref()
     }
@@ -110,7 +117,7 @@ impl SwarmEnv {
         self.batch.as_mut()
     }
 
-    /// Resets every environment; returns the observations [E][N][8].
+    /// Resets every environment; returns the observations `[E][N][8]`.
     pub fn reset(&mut self) -> Result<Vec<f32>, SimError> {
         self.episodes.clear();
         let mut obs = Vec::with_capacity(self.n_env * self.n * OBS_DIM);
@@ -202,7 +209,7 @@ impl SwarmEnv {
         ]
     }
 
-    /// Advances every environment by one control step with raw actions [E][N][2].
+    /// Advances every environment by one control step with raw actions `[E][N][2]`.
     pub fn step(&mut self, actions: &[[f32; 2]]) -> Result<StepOutput, SimError> {
         assert_eq!(actions.len(), self.n_env * self.n, "one action per agent");
         assert_eq!(self.episodes.len(), self.n_env, "reset before step");

@@ -1,7 +1,7 @@
 //! Non-learned controllers (SPEC sections 4 and 8) acting on one agent's observation, and for
 //! `scripted` on the inlet phase of its environment:
 //! - `upstream`: a = (-1, 0), full thrust against the flow;
-//! - `wall`: a = (-1/sqrt2, +-1/sqrt2), towards the nearer wall (the sign of obs[1] =
+//! - `wall`: a = (-1/sqrt2, +-1/sqrt2), towards the nearer wall (the sign of obs`[1]` =
 //!   (y - H/2) / (H/2));
 //! - `wall-angle:DEG`: a = (-cos DEG, +-sin DEG) towards the nearer wall (`upstream` = 0,
 //!   `wall` = 45 up to rounding);
@@ -21,9 +21,13 @@ use crate::rng::Rng;
 /// past the period's end).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Scripted {
+    /// Angle in the calm phase (deg from upstream towards the nearer wall).
     pub calm_deg: f64,
+    /// Angle inside the storm window (deg from upstream towards the nearer wall).
     pub storm_deg: f64,
+    /// Start of the storm window (s into the waveform period).
     pub storm_start_s: f64,
+    /// End of the storm window (s into the waveform period); may be below the start (wraps).
     pub storm_end_s: f64,
 }
 
@@ -67,13 +71,20 @@ impl Scripted {
     }
 }
 
+/// A non-learned controller, parsed from the `rollout --policy` name.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Controller {
+    /// a = (-1, 0): full thrust against the flow.
     Upstream,
+    /// a = (-1/sqrt2, +-1/sqrt2): upstream and towards the nearer wall.
     Wall,
+    /// a = 0: no thrust.
     Zero,
+    /// Each action component uniform in [-1, 1].
     Random,
+    /// Full thrust at the given angle (deg) from upstream towards the nearer wall.
     WallAngle(f64),
+    /// Phase-switched wall-angle controller (reads the inlet phase).
     Scripted(Scripted),
 }
 
@@ -161,7 +172,7 @@ impl Controller {
         }
     }
 
-    /// Actions for every agent of every environment, [E][N], from observations [E][N][8] and
+    /// Actions for every agent of every environment, `[E][N]`, from observations `[E][N][8]` and
     /// each environment's waveform time `t_s[e]`.
     pub fn act_all(&self, obs: &[f32], t_s: &[f64], period_s: f64, rng: &mut Rng) -> Vec<[f32; 2]> {
         let agents = (obs.len() / super::OBS_DIM / t_s.len().max(1)).max(1);

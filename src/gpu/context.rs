@@ -6,8 +6,10 @@ use std::fmt;
 
 use thiserror::Error;
 
+/// Why GPU work could not be set up or did not complete.
 #[derive(Debug, Error)]
 pub enum GpuError {
+    /// No adapter of the wanted kind was found.
     #[error(
         "no {wanted} adapter found (adapters seen: {seen}). On Debian/Ubuntu install the software \
          Vulkan driver with `bash scripts/install-vulkan.sh` (or `apt-get install libvulkan1 \
@@ -15,23 +17,42 @@ pub enum GpuError {
          takes whatever is there; `--set solver.backend=native` (or `auto`) runs the CPU backend, \
          which needs no adapter."
     )]
-    NoAdapter { wanted: AdapterChoice, seen: String },
+    NoAdapter {
+        /// The kind asked for.
+        wanted: AdapterChoice,
+        /// The adapters present, described (`none` if there are none).
+        seen: String,
+    },
+    /// The adapter refused to create a device.
     #[error("the adapter {adapter} refused to create a device: {message}")]
-    Device { adapter: String, message: String },
+    Device {
+        /// The adapter, described.
+        adapter: String,
+        /// wgpu's message.
+        message: String,
+    },
+    /// A wait or a buffer mapping failed; wgpu's message.
     #[error("GPU operation failed: {0}")]
     Operation(String),
+    /// A kernel needs more of a device limit than the adapter allows.
     #[error(
         "kernel `{kernel}` needs {limit} >= {need}, but the adapter {adapter} allows {have}: \
          choose another adapter (`--adapter`; `fluxswarm-gpu info` lists them), e.g. Mesa's \
          lavapipe (`bash scripts/install-vulkan.sh`)"
     )]
     Limit {
+        /// The kernel's entry point.
         kernel: &'static str,
+        /// Name of the `wgpu::Limits` field.
         limit: &'static str,
+        /// What the kernel needs.
         need: u32,
+        /// What the adapter allows.
         have: u32,
+        /// The adapter, described.
         adapter: String,
     },
+    /// wgpu rejected a command (a validation error); its results are void.
     #[error(
         "the GPU rejected a command ({0}); its results are void. This is a bug in fluxswarm-gpu: please report it with the command line and `fluxswarm-gpu info`"
     )]
@@ -64,9 +85,13 @@ impl fmt::Display for AdapterChoice {
 /// handles are shared).
 #[derive(Clone)]
 pub struct GpuContext {
+    /// The device.
     pub device: wgpu::Device,
+    /// Its queue.
     pub queue: wgpu::Queue,
+    /// The adapter's name, backend and type.
     pub info: wgpu::AdapterInfo,
+    /// The limits the device was created with.
     pub limits: wgpu::Limits,
     /// The first error wgpu raised outside an error scope (a rejected command buffer runs
     /// nothing), reported by the next [`GpuContext::wait`].
@@ -85,6 +110,7 @@ impl GpuContext {
         Self::from_adapter(adapter)
     }
 
+    /// A device on `adapter` with the adapter's own limits.
     pub fn from_adapter(adapter: wgpu::Adapter) -> Result<Self, GpuError> {
         let limits = adapter.limits();
         Self::from_adapter_with_limits(adapter, limits)
@@ -129,6 +155,7 @@ impl GpuContext {
         })
     }
 
+    /// Whether the adapter is a software one (device type `Cpu`, e.g. lavapipe).
     pub fn is_software(&self) -> bool {
         self.info.device_type == wgpu::DeviceType::Cpu
     }
@@ -150,7 +177,6 @@ impl GpuContext {
         }
     }
 
-    /// Waits for all submitted work.
     /// Waits for the submitted work; fails if wgpu rejected any command since the last check
     /// (its validation errors would otherwise leave results silently unwritten).
     pub fn wait(&self) -> Result<(), GpuError> {
@@ -180,6 +206,7 @@ pub fn enumerate_adapters() -> Vec<wgpu::Adapter> {
     pollster::block_on(instance.enumerate_adapters(backends))
 }
 
+/// An adapter as name, driver, backend and device type, e.g. `llvmpipe (LLVM ...) (Vulkan, Cpu)`.
 pub fn describe(info: &wgpu::AdapterInfo) -> String {
     let driver = if info.driver_info.is_empty() {
         String::new()

@@ -5,15 +5,25 @@
 
 use super::kernels::{Columns, ENTRIES};
 
+/// `common.wgsl`: parameters, index and ghost helpers shared by every fluid kernel.
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
+/// `sample.wgsl`: the samplers of one velocity source (`SRC`), instantiated per source.
 pub const SAMPLE: &str = include_str!("../../shaders/sample.wgsl");
+/// `advect.wgsl`: the momentum predictor.
 pub const ADVECT: &str = include_str!("../../shaders/advect.wgsl");
+/// `pressure_rhs.wgsl`: the Poisson right-hand side in y-modes.
 pub const PRESSURE_RHS: &str = include_str!("../../shaders/pressure_rhs.wgsl");
+/// `pressure_solve.wgsl`: the per-mode Thomas solve.
 pub const PRESSURE_SOLVE: &str = include_str!("../../shaders/pressure_solve.wgsl");
+/// `pressure_scan.wgsl`: the per-mode solve as parallel scans.
 pub const PRESSURE_SCAN: &str = include_str!("../../shaders/pressure_scan.wgsl");
+/// `project.wgsl`: pressure back-transform and velocity correction.
 pub const PROJECT: &str = include_str!("../../shaders/project.wgsl");
+/// `diagnostics.wgsl`: per-environment health.
 pub const DIAGNOSTICS: &str = include_str!("../../shaders/diagnostics.wgsl");
+/// `members.wgsl`: body painting and member motion.
 pub const MEMBERS: &str = include_str!("../../shaders/members.wgsl");
+/// `loop_probe.wgsl`: driver self-check counting the trips of a long loop.
 pub const LOOP_PROBE: &str = include_str!("../../shaders/loop_probe.wgsl");
 
 /// The velocity sources `sample.wgsl` is instantiated for (its `SRC`), as `load_u_<source>`

@@ -21,8 +21,11 @@ pub const READ_OVERRIDES: [(&str, &[FieldBinding]); 1] = {
 /// The bindings (group 0) an entry point reads and writes.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct KernelAccess {
+    /// Entry point name.
     pub entry: String,
+    /// Storage bindings it reads (uniforms 0 and 1 left out).
     pub reads: Vec<u32>,
+    /// Storage bindings it writes.
     pub writes: Vec<u32>,
 }
 

@@ -6,15 +6,22 @@
 
 use super::lanes::Path;
 
+/// Adam optimiser state for one flat parameter vector (see the module header).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Adam {
+    /// Learning rate.
     pub lr: f64,
+    /// Decay rate b1 of the first moment.
     pub beta1: f64,
+    /// Decay rate b2 of the second moment.
     pub beta2: f64,
+    /// Term added to sqrt(v) in the denominator.
     pub eps: f64,
     /// Steps taken.
     pub t: u64,
+    /// First moment estimates, one per parameter.
     pub m: Vec<f32>,
+    /// Second moment estimates, one per parameter.
     pub v: Vec<f32>,
 }
 

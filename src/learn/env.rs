@@ -1,5 +1,5 @@
 //! The environment interface the learner drives: it knows no GPU and no swarm, only batched
-//! observations [E][N][obs_dim], 2D actions [E][N] and the [`Transition`] it gets back.
+//! observations `[E][N][obs_dim]`, 2D actions `[E][N]` and the [`Transition`] it gets back.
 //! A toy environment with a known optimum for tests is `crate::testing::PointMasses`.
 
 pub use super::error::EnvError;
@@ -8,10 +8,15 @@ use crate::checkpoint::Archive;
 
 /// A batched multi-agent, multi-objective environment with 2D actions.
 pub trait MultiAgentEnv {
+    /// Number of environments E.
     fn n_env(&self) -> usize;
+    /// Number of agents N per environment.
     fn n_agents(&self) -> usize;
+    /// Length of one agent's observation.
     fn obs_dim(&self) -> usize;
+    /// Resets every environment; returns the observations `[E][N][obs_dim]`.
     fn reset(&mut self) -> Result<Vec<f32>, EnvError>;
+    /// Advances every environment by one step with actions `[E][N][2]`.
     fn step(&mut self, actions: &[[f32; 2]]) -> Result<Transition, EnvError>;
     /// Adds the whole state of every environment (after `reset`) to a checkpoint under `env.`.
     fn save_state(&self, archive: &mut Archive) -> Result<(), EnvError>;

@@ -6,23 +6,33 @@
 //! V_next_t is the value of the state after step t in the same episode: V(s_{t+1}) while the
 //! episode goes on, V(final observation) when it was truncated at t (the caller fills it in;
 //! auto-reset means s_{t+1} belongs to a new episode). A diverged step is never bootstrapped.
-//! Shapes: rewards, values, next_values [T][E][N][K]; flags [T][E].
+//! Shapes: rewards, values, next_values `[T][E][N][K]`; flags `[T][E]`.
 
 /// One rollout, flattened row-major with t outermost.
 pub struct Rollout<'a> {
+    /// Rollout length T (steps).
     pub steps: usize,
+    /// Number of environments E.
     pub envs: usize,
+    /// Number of agents N per environment.
     pub agents: usize,
+    /// Number of objectives K.
     pub objectives: usize,
+    /// Rewards r_t, `[T][E][N][K]`.
     pub rewards: &'a [f32],
+    /// Values V(s_t), `[T][E][N][K]`.
     pub values: &'a [f32],
+    /// Values of the state after step t in the same episode (V_next_t), `[T][E][N][K]`.
     pub next_values: &'a [f32],
+    /// Episode terminated at step t (no bootstrap), `[T][E]`.
     pub terminated: &'a [bool],
+    /// Episode truncated at step t (bootstrapped from `next_values`), `[T][E]`.
     pub truncated: &'a [bool],
+    /// Environment diverged at step t (no bootstrap), `[T][E]`.
     pub diverged: &'a [bool],
 }
 
-/// Advantages and returns, both [T][E][N][K].
+/// Advantages and returns, both `[T][E][N][K]`.
 pub fn gae(r: &Rollout, gamma: f32, lambda: f32) -> (Vec<f32>, Vec<f32>) {
     let per_step = r.envs * r.agents * r.objectives;
     let per_env = r.agents * r.objectives;

@@ -16,10 +16,14 @@ use candle_nn::{Linear, Module, VarBuilder, linear};
 
 use super::mlp;
 
+/// Width of both hidden layers of the actor and the critic.
 pub const HIDDEN: usize = 256;
+/// Lower bound of the actor's log σ.
 pub const LOG_STD_MIN: f64 = -5.0;
+/// Upper bound of the actor's log σ.
 pub const LOG_STD_MAX: f64 = 1.0;
 
+/// The actor in candle: observations [B, obs_dim] -> Gaussian mean and log σ [B, action_dim].
 pub struct Actor {
     l1: Linear,
     l2: Linear,
@@ -35,6 +39,7 @@ pub struct ActorPass {
     h2: Tensor,
     /// [B, action_dim] each.
     pub mean: Tensor,
+    /// Bounded log σ [B, action_dim].
     pub log_std: Tensor,
 }
 
@@ -58,6 +63,7 @@ impl ActorPass {
 }
 
 impl Actor {
+    /// The actor's layers `l1`, `l2`, `head` under `vb`.
     pub fn new(vb: VarBuilder, obs_dim: usize, action_dim: usize) -> Result<Self> {
         Ok(Self {
             l1: linear(obs_dim, HIDDEN, vb.pp("l1"))?,
@@ -174,6 +180,7 @@ impl Actor {
     }
 }
 
+/// The centralised critic in candle: joint states [B, N*obs_dim] -> values [B, 3, N].
 pub struct Critic {
     l1: Linear,
     l2: Linear,
@@ -181,6 +188,7 @@ pub struct Critic {
 }
 
 impl Critic {
+    /// The critic's layers `l1`, `l2` and the three heads under `vb`, for `agents` agents.
     pub fn new(vb: VarBuilder, agents: usize, obs_dim: usize) -> Result<Self> {
         Ok(Self {
             l1: linear(agents * obs_dim, HIDDEN, vb.pp("l1"))?,

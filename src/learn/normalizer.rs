@@ -3,10 +3,14 @@
 //! (Chan et al.'s parallel update, in f64), and x' = clamp((x - mean) / sqrt(var + 1e-8), -10, 10).
 //! Saved with the checkpoint so a trained policy sees the same inputs in `eval`.
 
+/// Running per-dimension observation statistics (see the module header).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ObsNormalizer {
+    /// Number of observation rows merged so far.
     pub count: f64,
+    /// Running mean per observation dimension.
     pub mean: Vec<f64>,
+    /// Running (population) variance per observation dimension.
     pub var: Vec<f64>,
 }
 
@@ -15,6 +19,7 @@ pub const CLIP: f64 = 10.0;
 const EPS: f64 = 1e-8;
 
 impl ObsNormalizer {
+    /// A normaliser for `dim` dimensions: no rows seen, mean 0, variance 1.
     pub fn new(dim: usize) -> Self {
         Self {
             count: 0.0,
@@ -23,11 +28,12 @@ impl ObsNormalizer {
         }
     }
 
+    /// Observation dimension.
     pub fn dim(&self) -> usize {
         self.mean.len()
     }
 
-    /// Merges a batch of observations [rows][dim] into the running statistics.
+    /// Merges a batch of observations `[rows][dim]` into the running statistics.
     pub fn update(&mut self, obs: &[f32]) {
         let d = self.dim();
         let rows = obs.len() / d;
@@ -48,7 +54,7 @@ impl ObsNormalizer {
         self.count += n;
     }
 
-    /// The normalised copy of observations [rows][dim].
+    /// The normalised copy of observations `[rows][dim]`.
     pub fn apply(&self, obs: &[f32]) -> Vec<f32> {
         let d = self.dim();
         obs.iter()

@@ -44,8 +44,11 @@ pub(crate) fn gram(grads: &[&[f32]]) -> Vec<Vec<f64>> {
 /// the projected ones, and the diagnostics of [`Surgery`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
+    /// Weight of each original gradient in the mean of the projected ones.
     pub weight: Vec<f64>,
+    /// cos(g_i, g_j) for i < j, in the order (0,1), (0,2), ..., (1,2), ...
     pub cosines: Vec<f32>,
+    /// g_i . g_j < 0 for the same pairs.
     pub conflicts: Vec<bool>,
 }
 
@@ -114,7 +117,7 @@ pub fn plan(grads: &[&[f32]], order: &[Vec<usize>]) -> Plan {
 }
 
 /// out = (sum_m weight_m g_m, summed in f64 in the order m = 0, 1, .., rounded to f32) + `extra`
-/// (where given, in f32), and returns out . out as [`dot`] sums it, in one pass.
+/// (where given, in f32), and returns out . out as `dot` sums it, in one pass.
 pub fn combine(out: &mut [f32], grads: &[&[f32]], weight: &[f64], extra: Option<&[f32]>) -> f64 {
     let len = out.len();
     assert!(

@@ -21,8 +21,8 @@ pub fn clipped_surrogate(
 }
 
 /// [`clipped_surrogate`] and its gradient in plain Rust, for the learner's hand-written
-/// backward pass: joint log-probabilities `log_new`, `log_old` [B] and per-agent advantages
-/// `advantages` [B][N] give the loss and d loss / d log_new [B]. Per element,
+/// backward pass: joint log-probabilities `log_new`, `log_old` `[B]` and per-agent advantages
+/// `advantages` `[B][N]` give the loss and d loss / d log_new `[B]`. Per element,
 /// d min(rho A, clip(rho) A) / d log rho is rho A where the unclipped term is the smaller (or
 /// they tie, inside the clip range), else 0.
 pub fn clipped_surrogate_grad(

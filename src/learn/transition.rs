@@ -7,9 +7,13 @@ use std::fmt;
 /// How an episode ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Outcome {
+    /// Goal reached (swarm mean x below the success line); terminated.
     Success,
+    /// Failure (a member past the failure line); terminated.
     Failure,
+    /// Step limit reached; truncated, so bootstrapped.
     Timeout,
+    /// CFD divergence (non-finite or runaway state); never bootstrapped.
     Diverged,
 }
 
@@ -27,20 +31,29 @@ impl fmt::Display for Outcome {
 /// Metrics of a finished episode (SPEC section 3, the columns of `episodes.csv`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct EpisodeSummary {
+    /// Index of the environment in the batch.
     pub env: usize,
+    /// Episode index within the environment.
     pub episode: u64,
+    /// Control steps in the episode.
     pub steps: u32,
+    /// How the episode ended.
     pub outcome: Outcome,
     /// Sum over steps of the agent-mean progress reward.
     pub progress: f64,
     /// Mean over steps of the agent-mean energy and smoothness rewards.
     pub energy: f64,
+    /// Mean over steps of the agent-mean smoothness reward.
     pub smoothness: f64,
+    /// Mean over steps of the agent-mean progress reward.
     pub progress_mean: f64,
+    /// Sum over steps of the agent-mean energy reward.
     pub energy_sum: f64,
+    /// Sum over steps of the agent-mean smoothness reward.
     pub smoothness_sum: f64,
     /// Sum over steps of the scalar reward (agent mean of the three columns).
     pub scalar_return: f64,
+    /// Swarm mean x at the episode's end (mm).
     pub final_x_com_mm: f64,
 }
 
@@ -48,15 +61,17 @@ pub struct EpisodeSummary {
 /// returns (see [`super::env::MultiAgentEnv`]).
 #[derive(Debug, Clone)]
 pub struct Transition {
-    /// [E][N][8]; for an environment that just ended, the first observation of its new episode.
+    /// `[E][N][8]`; for an environment that just ended, the first observation of its new episode.
     pub obs: Vec<f32>,
-    /// [E][N][3]; zero for a diverged environment (its state is garbage).
+    /// `[E][N][3]`; zero for a diverged environment (its state is garbage).
     pub rewards: Vec<f32>,
+    /// `[E]`; episode ended by success or failure (not bootstrapped).
     pub terminated: Vec<bool>,
+    /// `[E]`; episode reached the step limit (bootstrapped from `final_obs`).
     pub truncated: Vec<bool>,
     /// Outcome `diverged` (never bootstrapped); neither terminated nor truncated is set.
     pub diverged: Vec<bool>,
-    /// [N][8] final observation of each environment whose episode ended this step.
+    /// `[N][8]` final observation of each environment whose episode ended this step.
     pub final_obs: Vec<Option<Vec<f32>>>,
     /// Metrics of each episode that ended this step.
     pub episodes: Vec<Option<EpisodeSummary>>,

@@ -8,6 +8,7 @@ use crate::learn::transition::EpisodeSummary;
 
 const COLUMNS: &str = "env,episode,steps,outcome,progress,energy,smoothness,progress_mean,energy_sum,smoothness_sum,scalar_return,final_x_com_mm";
 
+/// Writer of `episodes.csv`, one row per finished episode.
 pub struct EpisodesCsv {
     out: BufWriter<std::fs::File>,
     global_step: bool,

@@ -19,9 +19,13 @@ const RED: Rgb<u8> = Rgb([230, 40, 40]);
 /// A member drawn on a frame: its centre (m) and applied force as a fraction of F_max.
 #[derive(Debug, Clone, Copy)]
 pub struct MemberMark {
+    /// Centre x (m).
     pub x_m: f64,
+    /// Centre y (m).
     pub y_m: f64,
+    /// Applied force x as a fraction of F_max.
     pub force_x: f64,
+    /// Applied force y as a fraction of F_max.
     pub force_y: f64,
 }
 
@@ -47,24 +51,34 @@ pub fn velocity_range(points: &[(f64, f64)]) -> (f64, f64) {
 
 /// What a frame shows.
 pub struct FrameSpec<'a> {
-    /// u_x at cell centres, [ny][nx] (m/s).
+    /// u_x at cell centres, `[ny][nx]` (m/s).
     pub ux: &'a [f32],
+    /// Cells in x.
     pub nx: usize,
+    /// Cells in y.
     pub ny: usize,
+    /// Channel length (m).
     pub length_m: f64,
+    /// Channel height (m).
     pub height_m: f64,
     /// Shown x range (m).
     pub x_min_m: f64,
+    /// Upper end of the shown x range (m).
     pub x_max_m: f64,
     /// Colour range (m/s).
     pub v_min: f64,
+    /// Upper end of the colour range (m/s).
     pub v_max: f64,
+    /// Simulated time printed on the frame (s).
     pub time_s: f64,
+    /// Inlet centreline velocity printed on the frame (m/s).
     pub inlet_u_m_s: f64,
+    /// Environment index printed on the frame.
     pub env: usize,
     /// Members (circles to scale, so ellipses under the y exaggeration), their centre of mass
     /// (a black dot) and their forces (arrows, 30 px at F_max).
     pub members: &'a [MemberMark],
+    /// Member radius (m).
     pub radius_m: f64,
 }
 
@@ -284,6 +298,7 @@ pub struct ColourScale {
 }
 
 impl ColourScale {
+    /// The scale over [v_min, v_max] (m/s), referenced to the larger magnitude of the two.
     pub fn new(v_min: f64, v_max: f64) -> Self {
         let reference = v_min.abs().max(v_max.abs()).max(1e-12);
         let s = |v: f64| v.signum() * (v.abs() / reference).sqrt();

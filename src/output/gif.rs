@@ -10,18 +10,26 @@ use image::{Delay, Frame, imageops};
 /// Width of README animations (px).
 pub const README_WIDTH: u32 = 640;
 
+/// Errors of writing an animated GIF.
 #[derive(Debug, thiserror::Error)]
 pub enum GifError {
+    /// No matching PNG frames in the directory.
     #[error("no frames to animate in {0}: give --frames-every K (K > 0) with --gif")]
     NoFrames(PathBuf),
+    /// A frame could not be read.
     #[error("reading frame {path}: {source}")]
     Frame {
+        /// The frame's file.
         path: PathBuf,
+        /// The error opening or decoding it.
         source: image::ImageError,
     },
+    /// The GIF could not be written.
     #[error("writing {path}: {source}")]
     Write {
+        /// The GIF's file.
         path: PathBuf,
+        /// The error creating or encoding it.
         source: image::ImageError,
     },
 }

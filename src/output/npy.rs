@@ -5,7 +5,7 @@ use std::path::Path;
 
 use npyz::WriterBuilder;
 
-/// Writes `data` ([ny][nx], x fastest) as a `<f4` array of shape [ny, nx].
+/// Writes `data` (`[ny][nx]`, x fastest) as a `<f4` array of shape `[ny, nx]`.
 pub fn write_field(path: &Path, ny: usize, nx: usize, data: &[f32]) -> std::io::Result<()> {
     assert_eq!(data.len(), nx * ny, "field size does not match its shape");
     let file = std::fs::File::create(path)?;

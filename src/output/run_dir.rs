@@ -5,13 +5,16 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
+/// An output directory that cannot be created or written.
 #[derive(Debug, Error)]
 #[error(
     "output directory {path} is not writable ({reason}): choose another with --out DIR or fix \
      its permissions"
 )]
 pub struct OutputDirError {
+    /// The directory or file that failed.
     pub path: String,
+    /// The I/O error's message.
     pub reason: String,
 }
 

@@ -101,6 +101,7 @@ impl EventWriter {
         })
     }
 
+    /// Path of the event file.
     pub fn path(&self) -> &Path {
         &self.path
     }

@@ -114,7 +114,7 @@ impl TrajectoriesCsv {
         create(dir, "trajectories.csv", TRAJECTORIES_COLUMNS).map(Self)
     }
 
-    /// Every member of one environment at one step: members, forces and actions are [N].
+    /// Every member of one environment at one step: members, forces and actions are `[N]`.
     pub fn write(
         &mut self,
         at: RowKey,

@@ -56,13 +56,16 @@ pub fn group_curve(runs: &[TrainRun], m: usize) -> Band {
 /// The key numbers of a group of training runs (one experiment, several seeds).
 #[derive(Debug, Clone)]
 pub struct TrainSummary {
+    /// Number of runs in the group.
     pub runs: usize,
+    /// Finished episodes over all runs.
     pub episodes: usize,
     /// Count per outcome, in `OUTCOMES` order.
     pub outcomes: [usize; 4],
     /// Final metrics: each environment's mean over its last `ROLLING` episodes, then mean and
     /// population sigma over all (run, environment) pairs.
     pub final_metrics: [(f64, f64); 3],
+    /// Fraction of all episodes that ended in success.
     pub success_rate: f64,
     /// Mean episode length of successful episodes (s); None without any.
     pub mean_time_to_success_s: Option<f64>,
@@ -91,6 +94,7 @@ fn mean_success_time(episodes: &[&Episode], dt: f64) -> Option<f64> {
     (!t.is_empty()).then(|| t.iter().sum::<f64>() / t.len() as f64)
 }
 
+/// The key numbers of a group of training runs.
 pub fn train_summary(runs: &[TrainRun]) -> TrainSummary {
     let all: Vec<&Episode> = runs.iter().flat_map(|r| &r.episodes).collect();
     let mut final_metrics = [(f64::NAN, f64::NAN); 3];
@@ -119,15 +123,23 @@ pub fn train_summary(runs: &[TrainRun]) -> TrainSummary {
 /// The key numbers of a rollout: metrics mean and population sigma over its episodes.
 #[derive(Debug, Clone)]
 pub struct RolloutSummary {
+    /// The rollout's short name ([`RolloutRun::label`]).
     pub label: String,
+    /// Number of finished episodes.
     pub episodes: usize,
+    /// Count per outcome, in `OUTCOMES` order.
     pub outcomes: [usize; 4],
+    /// Mean episode length (control steps).
     pub mean_steps: f64,
+    /// (mean, population sigma) of progress, energy, smoothness over the episodes.
     pub metrics: [(f64, f64); 3],
+    /// Mean final swarm x over the episodes (mm).
     pub final_x_com_mm: f64,
+    /// Mean episode length of successful episodes (s); None without any.
     pub mean_time_to_success_s: Option<f64>,
 }
 
+/// The key numbers of a rollout or eval run.
 pub fn rollout_summary(run: &RolloutRun) -> RolloutSummary {
     let eps: Vec<&Episode> = run.episodes.iter().collect();
     let metric = |m: usize| {

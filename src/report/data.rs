@@ -10,12 +10,15 @@ use super::error::{ReportError, Result};
 
 /// A CSV file with a header row (no quoting: none of our files needs it).
 pub struct Csv {
+    /// The file read.
     pub path: PathBuf,
     columns: HashMap<String, usize>,
+    /// The data rows, each split into its cells.
     pub rows: Vec<Vec<String>>,
 }
 
 impl Csv {
+    /// Reads the CSV file at `path`; fails when it has no header row.
     pub fn read(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).map_err(ReportError::read(path))?;
         let mut lines = text.lines().filter(|l| !l.trim().is_empty());
@@ -71,59 +74,86 @@ impl Csv {
 pub struct Episode {
     /// Global step at the end of the update the episode ended in (train only, else 0).
     pub global_step: u64,
+    /// Environment index.
     pub env: usize,
+    /// Episode index within its environment.
     pub episode: u64,
+    /// Control steps in the episode.
     pub steps: u64,
+    /// `success`, `failure`, `timeout` or `diverged`.
     pub outcome: String,
     /// progress, energy, smoothness (the SPEC section 3 episode metrics).
     pub metrics: [f64; 3],
+    /// Swarm mean x at the episode's end (mm).
     pub final_x_com_mm: f64,
 }
 
 /// One PPO update (a row of `updates.csv`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Update {
+    /// Update index.
     pub update: u64,
+    /// Global environment steps at the end of the update.
     pub global_step: u64,
     /// Cosines between the objective gradients: progress-energy, progress-smoothness,
     /// energy-smoothness.
     pub cos: [f64; 3],
     /// Fraction of minibatches in which that pair conflicted.
     pub conflict: [f64; 3],
+    /// Wall time inside the environment step during the iteration (s).
     pub sim_s: f64,
+    /// Wall time of everything else in the iteration: acting, GAE, the update (s).
     pub learn_s: f64,
 }
 
 /// One control step of one episode (a row of `swarm.csv`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SwarmStep {
+    /// Environment index.
     pub env: usize,
+    /// Episode index within its environment.
     pub episode: u64,
+    /// Control step within the episode (0 = the state at reset).
     pub step: u64,
+    /// Time since the episode start (s).
     pub t_s: f64,
+    /// Inlet centreline velocity (m/s).
     pub inlet_u_m_s: f64,
+    /// Swarm mean x (mm).
     pub x_com_mm: f64,
+    /// Standard deviation of the members' x (mm).
     pub sigma_x_mm: f64,
+    /// Standard deviation of the members' y (mm).
     pub sigma_y_mm: f64,
+    /// Radius of gyration of the swarm (mm).
     pub r_g_mm: f64,
 }
 
 /// What a run's `config.toml` says about it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunInfo {
+    /// The run directory.
     pub dir: PathBuf,
+    /// Seed from the header, if it names one.
     pub seed: Option<u64>,
+    /// Number of environments from the header, if it names them.
     pub envs: Option<usize>,
     /// The policy of a rollout/eval (`upstream`, a checkpoint path, …).
     pub policy: Option<String>,
+    /// What ran the control step, from the header's `adapter` entry.
     pub adapter: Option<String>,
+    /// Whether the run trained with PCGrad (`train.pcgrad`, true when absent).
     pub pcgrad: bool,
+    /// Control step (s).
     pub control_dt_s: f64,
+    /// Success line x_s (mm).
     pub success_x_mm: f64,
+    /// Failure line x_f (mm).
     pub failure_x_mm: f64,
 }
 
 impl RunInfo {
+    /// Reads `dir/config.toml`: its header line and its time and domain tables.
     pub fn read(dir: &Path) -> Result<Self> {
         let path = dir.join("config.toml");
         let text = std::fs::read_to_string(&path).map_err(|cause| ReportError::Read {
@@ -173,20 +203,27 @@ impl RunInfo {
 /// A training run directory: its episodes and updates.
 #[derive(Debug, Clone)]
 pub struct TrainRun {
+    /// What the run's `config.toml` says.
     pub info: RunInfo,
+    /// Rows of `episodes.csv`.
     pub episodes: Vec<Episode>,
+    /// Rows of `updates.csv`.
     pub updates: Vec<Update>,
 }
 
 /// A rollout or eval directory: its episodes and the per-step swarm metrics of those episodes.
 #[derive(Debug, Clone)]
 pub struct RolloutRun {
+    /// What the run's `config.toml` says.
     pub info: RunInfo,
+    /// Rows of `episodes.csv`.
     pub episodes: Vec<Episode>,
+    /// Rows of `swarm.csv` of the finished episodes.
     pub swarm: Vec<SwarmStep>,
 }
 
 impl TrainRun {
+    /// Reads a train run directory (`config.toml`, `episodes.csv`, `updates.csv`).
     pub fn read(dir: &Path) -> Result<Self> {
         let info = RunInfo::read(dir)?;
         let updates_path = dir.join("updates.csv");
@@ -244,6 +281,7 @@ impl TrainRun {
 }
 
 impl RolloutRun {
+    /// Reads a rollout or eval directory (`config.toml`, `episodes.csv`, `swarm.csv`).
     pub fn read(dir: &Path) -> Result<Self> {
         let info = RunInfo::read(dir)?;
         let episodes = read_episodes(&dir.join("episodes.csv"), false)?;

@@ -10,15 +10,21 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 /// One panel: cells (column i, row j) with a value in [lo, hi] of the colour scale and a label.
 pub struct HeatPanel {
+    /// Panel title.
     pub title: String,
+    /// (column i, row j, value on the colour scale, label) of each cell.
     pub cells: Vec<(usize, usize, f64, String)>,
 }
 
 /// The shared axes of a heatmap figure.
 pub struct HeatAxes<'a> {
+    /// Column labels, one per column i (left to right).
     pub x_labels: &'a [String],
+    /// Row labels, one per row j (row 0 at the bottom).
     pub y_labels: &'a [String],
+    /// Description of the x axis.
     pub x_desc: &'a str,
+    /// Description of the y axis.
     pub y_desc: &'a str,
 }
 
@@ -26,7 +32,9 @@ pub struct HeatAxes<'a> {
 /// white to green).
 #[derive(Debug, Clone, Copy)]
 pub enum Scale {
+    /// Value in [0, 1], white to blue.
     Sequential,
+    /// Value in [-1, 1], red through white to green.
     Diverging,
 }
 
@@ -37,6 +45,7 @@ fn lerp(a: RGBColor, b: RGBColor, t: f64) -> RGBColor {
 }
 
 impl Scale {
+    /// The cell colour of value `v`; light grey for a non-finite value.
     pub fn colour(&self, v: f64) -> RGBColor {
         let blue = RGBColor(8, 69, 148);
         let green = RGBColor(0, 109, 44);
@@ -162,7 +171,9 @@ fn draw(
 
 /// One scatter panel: points (x, y, value on the colour scale, label), x on a log axis.
 pub struct ScatterPanel {
+    /// Panel title.
     pub title: String,
+    /// (x, y, value on the colour scale, label) of each point.
     pub points: Vec<(f64, f64, f64, String)>,
 }
 

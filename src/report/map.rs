@@ -27,42 +27,60 @@ use super::stats::{mean_std, wilson95};
 /// One episode of a map run: `episodes.csv` joined with `starts.csv` on (env, episode).
 #[derive(Debug, Clone, PartialEq)]
 pub struct MapEpisode {
+    /// Control steps in the episode.
     pub steps: u64,
+    /// `success`, `failure`, `timeout` or `diverged`.
     pub outcome: String,
+    /// Waveform phase at the episode start (s into the period).
     pub start_phase_s: f64,
+    /// Swarm mean x at the episode start (mm).
     pub start_x_com_mm: f64,
+    /// Swarm mean x at the episode end (mm).
     pub final_x_com_mm: f64,
 }
 
 /// One rollout directory: a controller at one scenario.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MapRun {
+    /// The rollout directory.
     pub dir: PathBuf,
+    /// The controller's name from the config header.
     pub policy: String,
+    /// Flow scale `inlet.scale` (1 when absent).
     pub scale: f64,
     /// Peak |U| of the scaled waveform (NaN when the points come from a CSV file).
     pub peak_inlet_m_s: f64,
+    /// Thrust bound F_max, `swarm.max_thrust_n` (N).
     pub max_thrust_n: f64,
+    /// Control step (s).
     pub control_dt_s: f64,
+    /// Waveform period (s).
     pub period_s: f64,
+    /// The run's finished episodes.
     pub episodes: Vec<MapEpisode>,
 }
 
 /// The success count and interval of one stratum.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rate {
+    /// Episodes in the stratum.
     pub n: usize,
+    /// Successful episodes among them.
     pub k: usize,
+    /// Lower end of the 95 % Wilson interval of k/n.
     pub lo: f64,
+    /// Upper end of the 95 % Wilson interval of k/n.
     pub hi: f64,
 }
 
 impl Rate {
+    /// The rate of `k` successes in `n` episodes with its Wilson interval.
     pub fn of(k: usize, n: usize) -> Self {
         let (lo, hi) = wilson95(k, n);
         Self { n, k, lo, hi }
     }
 
+    /// k/n; NaN for n = 0.
     pub fn rate(&self) -> f64 {
         if self.n == 0 {
             f64::NAN
@@ -75,17 +93,29 @@ impl Rate {
 /// One row of `map.csv`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Cell {
+    /// Flow scale `inlet.scale`.
     pub scale: f64,
+    /// Peak |U| of the scaled waveform (m/s); NaN when the points come from a CSV file.
     pub peak_inlet_m_s: f64,
+    /// Thrust bound F_max (N).
     pub max_thrust_n: f64,
+    /// The controller's name.
     pub policy: String,
+    /// Success rate over all episodes.
     pub all: Rate,
+    /// Success rate of episodes started in systole (phase in [0, systole_end_s)).
     pub systole: Rate,
+    /// Success rate of the other episodes.
     pub diastole: Rate,
+    /// Episodes that ended in failure.
     pub failures: usize,
+    /// Episodes that ended in timeout.
     pub timeouts: usize,
+    /// Mean episode length of successful episodes (s); NaN without any.
     pub mean_success_time_s: f64,
+    /// Median episode length (waveform cycles).
     pub median_cycles: f64,
+    /// Net upstream swarm displacement per simulated cycle, pooled over episodes (mm per cycle).
     pub upstream_mm_per_cycle: f64,
 }
 
@@ -258,6 +288,7 @@ fn median(sorted: &[f64]) -> f64 {
 /// The streamwise force on a member pinned at the wall over one cycle, from a probe rollout.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WallDrag {
+    /// Flow scale `inlet.scale` of the probe.
     pub scale: f64,
     /// F_x = f_hydro_x + f_drag_x at each control step of the cycle (N).
     pub force_n: Vec<f64>,
@@ -286,6 +317,7 @@ impl WallDrag {
         Ok(Self { scale, force_n })
     }
 
+    /// Largest streamwise force over the cycle (N).
     pub fn peak_n(&self) -> f64 {
         self.force_n
             .iter()

@@ -16,17 +16,24 @@ use super::error::{Result, Within};
 use super::heatmap::{self, HeatAxes, HeatPanel, Scale, ScatterPanel};
 use super::map::{Cell, WallDrag, is_constant, probe_for, wall_angle_deg};
 
+/// Header row of `controllability_map.csv`.
 pub const MAP_HEADER: &str = "inlet_scale,peak_inlet_m_s,max_thrust_nN,policy,episodes,successes,success_rate,success_lo,success_hi,systole_episodes,systole_successes,systole_lo,systole_hi,diastole_episodes,diastole_successes,diastole_lo,diastole_hi,failures,timeouts,mean_success_time_s,median_cycles,upstream_mm_per_cycle,peak_wall_drag_nN,thrust_over_peak_drag,thrust_beats_drag_fraction";
 
+/// Header row of `controllability_points.csv`.
 pub const POINTS_HEADER: &str = "inlet_scale,max_thrust_nN,episodes,best_constant,best_constant_rate,best_constant_lo,best_constant_hi,best_angle_deg,best_angle_rate,scripted_rate,scripted_lo,scripted_hi,gap";
 
 /// The best constant controller, the best wall angle and `scripted` at one point.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Point<'a> {
+    /// Flow scale `inlet.scale` of the point.
     pub scale: f64,
+    /// Thrust bound F_max of the point (N).
     pub max_thrust_n: f64,
+    /// The constant controller with the most successes.
     pub best_constant: &'a Cell,
+    /// The wall-angle controller with the most successes, if any ran.
     pub best_angle: Option<&'a Cell>,
+    /// The `scripted` controller's cell, if it ran.
     pub scripted: Option<&'a Cell>,
 }
 

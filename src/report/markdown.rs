@@ -58,6 +58,7 @@ fn mean(v: impl Iterator<Item = f64>) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
+/// The text of `report.md` for the loaded runs and the written `figures`.
 pub fn report(l: &Loaded, figures: &[String]) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# fluxswarm-gpu report\n");

@@ -37,18 +37,27 @@ pub const UPDATE_WINDOW: usize = 10;
 /// What to report on.
 #[derive(Debug, Clone, Default)]
 pub struct Inputs {
+    /// Train run directories of the experiment (one per seed).
     pub runs: Vec<PathBuf>,
+    /// Train run directories of a compared experiment (e.g. without PCGrad).
     pub compare: Vec<PathBuf>,
+    /// Baseline rollout/eval directories.
     pub baselines: Vec<PathBuf>,
+    /// Rollout/eval directory before learning (given with `after`).
     pub before: Option<PathBuf>,
+    /// Rollout/eval directory after learning (given with `before`).
     pub after: Option<PathBuf>,
 }
 
 /// Everything read, ready to draw and summarise.
 pub struct Loaded {
+    /// The experiment's train runs.
     pub runs: Vec<TrainRun>,
+    /// The compared experiment's train runs.
     pub compare: Vec<TrainRun>,
+    /// The baseline rollouts.
     pub baselines: Vec<RolloutRun>,
+    /// The (before, after) rollouts, when given.
     pub before_after: Option<(RolloutRun, RolloutRun)>,
 }
 
@@ -65,6 +74,7 @@ pub fn group_label(runs: &[TrainRun]) -> String {
     }
 }
 
+/// Reads every run directory of `inputs`; fails on a missing train run or a lone before/after.
 pub fn load(inputs: &Inputs) -> Result<Loaded> {
     if inputs.runs.is_empty() {
         return Err(ReportError::Usage(

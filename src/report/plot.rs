@@ -19,21 +19,33 @@ const FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
 /// Figure width and the height of one panel (px).
 pub const WIDTH: u32 = 1000;
+/// Height of one panel (px).
 pub const PANEL_HEIGHT: u32 = 380;
 
+/// Colour: blue (matplotlib's tab:blue).
 pub const BLUE: RGBColor = RGBColor(31, 119, 180);
+/// Colour: orange (matplotlib's tab:orange).
 pub const ORANGE: RGBColor = RGBColor(255, 127, 14);
+/// Colour: green (matplotlib's tab:green).
 pub const GREEN: RGBColor = RGBColor(44, 160, 44);
+/// Colour: purple (matplotlib's tab:purple).
 pub const PURPLE: RGBColor = RGBColor(148, 103, 189);
+/// Colour: brown (matplotlib's tab:brown).
 pub const BROWN: RGBColor = RGBColor(140, 86, 75);
+/// Colour: mid grey.
 pub const GREY: RGBColor = RGBColor(120, 120, 120);
+/// Colour: red (matplotlib's tab:red).
 pub const RED: RGBColor = RGBColor(214, 39, 40);
 
 /// A curve, with a shaded band when it has one.
 pub struct Curve {
+    /// Legend label.
     pub label: String,
+    /// Line colour; the band is drawn in it, translucent.
     pub color: RGBColor,
+    /// Draw the line dashed.
     pub dashed: bool,
+    /// The points (x, mean) and the band lo..hi around them.
     pub band: Band,
 }
 
@@ -57,26 +69,41 @@ impl Curve {
 
 /// A horizontal reference: a value with a band lo..hi across the whole x range.
 pub struct Reference {
+    /// Legend label.
     pub label: String,
+    /// Colour of the line and its band.
     pub color: RGBColor,
+    /// The reference value.
     pub mean: f64,
+    /// Lower edge of the band.
     pub lo: f64,
+    /// Upper edge of the band.
     pub hi: f64,
 }
 
 /// A secondary-axis line (the inlet waveform).
 pub struct Secondary {
+    /// Legend label.
     pub label: String,
+    /// Description of the secondary y axis.
     pub y_desc: String,
+    /// The points (x, y) on the secondary axis.
     pub points: Vec<(f64, f64)>,
 }
 
+/// One panel of a figure: its curves, references and optional secondary axis.
 pub struct Panel {
+    /// Panel title.
     pub title: String,
+    /// Description of the x axis.
     pub x_desc: String,
+    /// Description of the y axis.
     pub y_desc: String,
+    /// The curves.
     pub curves: Vec<Curve>,
+    /// The horizontal reference bands.
     pub references: Vec<Reference>,
+    /// An optional line on a secondary y axis.
     pub secondary: Option<Secondary>,
     /// Draw the legend (a stack of panels showing the same series needs it once).
     pub legend: bool,

@@ -77,9 +77,13 @@ pub fn wilson95(k: usize, n: usize) -> (f64, f64) {
 /// A curve with a band around it: `lo <= mean <= hi` at each `x`.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Band {
+    /// x of each point.
     pub x: Vec<f64>,
+    /// Curve value at each point.
     pub mean: Vec<f64>,
+    /// Lower edge of the band at each point.
     pub lo: Vec<f64>,
+    /// Upper edge of the band at each point.
     pub hi: Vec<f64>,
 }
 

@@ -27,12 +27,17 @@ pub const FINAL_EPISODES: usize = 100;
 /// One point's summary.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PointSummary {
+    /// Point index in `sweep.csv`.
     pub point: usize,
     /// The point's value of each key, as `sweep.csv` gives it.
     pub values: Vec<String>,
+    /// Runs of the point that are done and have finished episodes.
     pub seeds_done: usize,
+    /// Runs (seeds) of the point in `sweep.csv`.
     pub seeds: usize,
+    /// Successful episodes among those counted in `episodes`.
     pub successes: usize,
+    /// Episodes counted over the done runs (a train run's last [`FINAL_EPISODES`]).
     pub episodes: usize,
     /// Progress, energy, smoothness: (mean over seeds, 95 % half-width).
     pub metrics: [(f64, f64); 3],
@@ -43,7 +48,9 @@ pub struct PointSummary {
 /// A sweep's table, read.
 #[derive(Debug, Clone)]
 pub struct SweepSummary {
+    /// The grid keys, in `sweep.csv` column order.
     pub keys: Vec<String>,
+    /// One summary per point, by point index.
     pub points: Vec<PointSummary>,
 }
 

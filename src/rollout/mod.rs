@@ -12,7 +12,7 @@
 pub mod files;
 mod policy;
 
-pub use policy::Policy;
+pub use policy::{CustomPolicy, Policy};
 
 use crate::checkpoint::CheckpointError;
 use crate::config::ConfigError;
@@ -74,11 +74,11 @@ pub struct StepView<'a> {
     pub step: u32,
     /// Inlet centreline velocity (m/s) at the end of the step.
     pub inlet_u_m_s: f64,
-    /// The environment's members [N] and the forces on them (zero at a start).
+    /// The environment's members `[N]` and the forces on them (zero at a start).
     pub members: &'a [GpuMember],
-    /// Forces on the members [N].
+    /// Forces on the members `[N]`.
     pub forces: &'a [GpuMemberDiag],
-    /// The actions [N] that led here (zero at a start).
+    /// The actions `[N]` that led here (zero at a start).
     pub actions: &'a [[f32; 2]],
 }
 

@@ -1,6 +1,7 @@
 //! What chooses a rollout's actions: a non-learned controller ([`Controller`], with its own
 //! RNG for `random`) or a trained actor loaded from a checkpoint or `policy.safetensors`
-//! (sampled, or its mean action).
+//! (sampled, or its mean action), or any function of the observations and the environments
+//! ([`Policy::custom`]: a controller tried out before it gets a name, docs/extending.md).
 
 use std::path::Path;
 
@@ -11,6 +12,10 @@ use crate::env::policy::Controller;
 use crate::env::{OBS_DIM, SwarmEnv};
 use crate::learn::mappo::Learner;
 use crate::rng::Rng;
+
+/// A custom policy: actions `[E][N]` from observations `[E][N][8]` and the environments (which
+/// give the inlet phase, as `scripted` reads it).
+pub type CustomPolicy = Box<dyn FnMut(&[f32], &SwarmEnv) -> Vec<[f32; 2]> + Send>;
 
 /// What chooses the actions.
 pub enum Policy {
@@ -23,12 +28,19 @@ pub enum Policy {
         /// Act with the mean action instead of sampling.
         deterministic: bool,
     },
+    /// A function of the observations and the environments.
+    Custom(CustomPolicy),
 }
 
 impl Policy {
     /// A controller whose random draws follow `seed`.
     pub fn controller(controller: Controller, seed: u64) -> Self {
         Policy::Controller(controller, Rng::new(seed.wrapping_add(0x9E37)))
+    }
+
+    /// A policy given as a function of the observations `[E][N][8]` and the environments.
+    pub fn custom(act: impl FnMut(&[f32], &SwarmEnv) -> Vec<[f32; 2]> + Send + 'static) -> Self {
+        Policy::Custom(Box::new(act))
     }
 
     /// The trained policy of a checkpoint or a `policy.safetensors` (a file, or a run
@@ -58,7 +70,7 @@ impl Policy {
         Ok((policy, resolved))
     }
 
-    /// Actions [E][N] for observations [E][N][8] of `env`.
+    /// Actions `[E][N]` for observations `[E][N][8]` of `env`.
     pub fn act_all(&mut self, obs: &[f32], env: &SwarmEnv) -> Result<Vec<[f32; 2]>, RolloutError> {
         Ok(match self {
             Policy::Controller(c, rng) => {
@@ -70,6 +82,7 @@ impl Policy {
                 learner,
                 deterministic,
             } => learner.act(&learner.normalize(obs), *deterministic)?.0,
+            Policy::Custom(act) => act(obs, env),
         })
     }
 

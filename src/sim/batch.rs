@@ -1,8 +1,8 @@
 //! The one interface of a batch of E channel flows, whichever backend runs it: the WGSL kernels
 //! ([`crate::sim::GpuBatch`]) or the CPU stages ([`crate::sim::CpuBatch`]). Both hold the same
 //! state, per environment (environment index outermost):
-//! u [ny][nx+1], v [ny+1][nx], p [ny][nx], body [ny][nx] (chi, u_body, v_body, 0), members,
-//! their raw actions and last forces [N], the swarm box, and a clock (time since reset and
+//! u `[ny][nx+1]`, v `[ny+1][nx]`, p `[ny][nx]`, body `[ny][nx]` (chi, u_body, v_body, 0), members,
+//! their raw actions and last forces `[N]`, the swarm box, and a clock (time since reset and
 //! waveform phase). [`FlowBatch::state`] / [`FlowBatch::set_state`] move that state between
 //! backends as a [`BatchState`]; checkpoints store it in one format for both.
 
@@ -14,13 +14,16 @@ use crate::waveform::Waveform;
 use super::cpu::BatchState;
 use super::{EnvHealth, Grid, SimError, poisson::PoissonTables};
 
-/// Cell-centred fields of one environment, [ny][nx], row 0 at the bottom wall.
+/// Cell-centred fields of one environment, `[ny][nx]`, row 0 at the bottom wall.
 #[derive(Debug, Clone)]
 pub struct Fields {
+    /// Cells along x.
     pub nx: usize,
+    /// Cells across the height.
     pub ny: usize,
-    /// Face velocities as stored: u [ny][nx+1], v [ny+1][nx] (m/s).
+    /// Face velocities as stored: u `[ny][nx+1]`, v `[ny+1][nx]` (m/s).
     pub u_faces: Vec<f32>,
+    /// v face velocities `[ny+1][nx]` (m/s).
     pub v_faces: Vec<f32>,
     /// Pressure at cell centres (Pa).
     pub p: Vec<f32>,
@@ -56,7 +59,7 @@ impl Fields {
         }
     }
 
-    /// u_x at cell centres (mean of the two faces), [ny][nx].
+    /// u_x at cell centres (mean of the two faces), `[ny][nx]`.
     pub fn ux_cells(&self) -> Vec<f32> {
         let (nx, ny) = (self.nx, self.ny);
         (0..ny)
@@ -67,7 +70,7 @@ impl Fields {
             .collect()
     }
 
-    /// u_y at cell centres, [ny][nx].
+    /// u_y at cell centres, `[ny][nx]`.
     pub fn uy_cells(&self) -> Vec<f32> {
         let (nx, ny) = (self.nx, self.ny);
         (0..ny)
@@ -81,16 +84,25 @@ impl Fields {
 /// the clock of each environment.
 #[derive(Debug, Clone)]
 pub struct BatchCore {
+    /// The channel's grid.
     pub grid: Grid,
+    /// Batch-wide kernel constants.
     pub params: GpuParams,
+    /// Advection scheme.
     pub scheme: Advection,
+    /// Inlet centreline-velocity waveform.
     pub waveform: Waveform,
+    /// Environments in the batch (E).
     pub n_env: usize,
+    /// Members per environment (N).
     pub n_members: usize,
+    /// Fluid substeps per control step (S).
     pub substeps: usize,
+    /// Control step length (s).
     pub control_dt: f64,
     /// Density (kg/m^3) and dynamic viscosity (Pa s).
     pub density: f64,
+    /// Dynamic viscosity (Pa s).
     pub viscosity: f64,
     /// The fast solver's tables as the kernels read them ([`PoissonTables::to_gpu`]).
     pub poisson: Vec<f32>,
@@ -98,12 +110,14 @@ pub struct BatchCore {
     pub initial_members: Vec<GpuMember>,
     /// Time of each environment since its reset and its waveform phase offset (s).
     pub time_s: Vec<f64>,
+    /// Waveform phase offset of each environment (s), `[E]`.
     pub phase_s: Vec<f64>,
     /// Control steps taken since the batch was created.
     pub steps: u64,
 }
 
 impl BatchCore {
+    /// The shared state of an `n_env`-environment batch, every clock at zero.
     pub fn new(resolved: &Resolved, n_env: usize) -> Result<Self, SimError> {
         if n_env == 0 {
             return Err(SimError::Empty);
@@ -141,6 +155,7 @@ impl BatchCore {
         })
     }
 
+    /// An error unless environment `e` exists.
     pub fn check_env(&self, e: usize) -> Result<(), SimError> {
         if e < self.n_env {
             Ok(())
@@ -183,7 +198,7 @@ impl BatchCore {
     }
 
     /// The inlet centreline velocity of every environment at the end of every substep of the
-    /// coming control step, [E][S] (m/s).
+    /// coming control step, `[E][S]` (m/s).
     pub fn inlet_values(&self) -> Vec<f32> {
         (0..self.n_env)
             .flat_map(|e| {
@@ -203,7 +218,7 @@ impl BatchCore {
     }
 
     /// The developed Poiseuille flow of U(phase) with its linear pressure (dp/dx = -8 mu U /
-    /// H^2, p = 0 on the outlet face): u [ny][nx+1], v [ny+1][nx], p [ny][nx].
+    /// H^2, p = 0 on the outlet face): u `[ny][nx+1]`, v `[ny+1][nx]`, p `[ny][nx]`.
     pub fn initial_flow(&self, phase_s: f64) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
         let g = self.grid;
         let u0 = self.waveform.at(phase_s);
@@ -249,7 +264,9 @@ pub fn swarm_box(members: &[GpuMember]) -> [f32; 4] {
 ///
 /// [`step`]: FlowBatch::step
 pub trait FlowBatch: Send {
+    /// The shared state.
     fn core(&self) -> &BatchCore;
+    /// The shared state, mutable.
     fn core_mut(&mut self) -> &mut BatchCore;
 
     /// Which backend runs the step, for run headers: "native" or "adapter".
@@ -262,19 +279,19 @@ pub trait FlowBatch: Send {
     /// Health of the current state without stepping (e.g. of the initial state).
     fn health(&mut self) -> Result<Vec<EnvHealth>, SimError>;
 
-    /// Members of every environment, [E][N], after the last step or write.
+    /// Members of every environment, `[E][N]`, after the last step or write.
     fn members(&self) -> &[GpuMember];
-    /// Forces and pressure samples of every member during the last substep, [E][N].
+    /// Forces and pressure samples of every member during the last substep, `[E][N]`.
     fn member_forces(&self) -> &[GpuMemberDiag];
     /// Places the members of environment e (positions, velocities, pinned flags).
     fn set_members(&mut self, e: usize, members: &[GpuMember]) -> Result<(), SimError>;
     /// Sets the raw actions a (one [ax, ay] per member) of environment e for the coming steps;
     /// the step applies F_prop = F_max a / max(1, |a|).
     fn set_actions(&mut self, e: usize, actions: &[[f32; 2]]) -> Result<(), SimError>;
-    /// Raw actions of every environment at once, [E][N].
+    /// Raw actions of every environment at once, `[E][N]`.
     fn set_all_actions(&mut self, actions: &[[f32; 2]]) -> Result<(), SimError>;
     /// Sets the solid fraction and body velocity of every cell of environment e,
-    /// `[chi, u_body, v_body, 0]`, [ny][nx]. A batch with members repaints the body field
+    /// `[chi, u_body, v_body, 0]`, `[ny][nx]`. A batch with members repaints the body field
     /// from them every substep, so this is for member-free batches.
     fn set_body(&mut self, e: usize, cells: &[[f32; 4]]) -> Result<(), SimError>;
     /// Overwrites the velocity and pressure of environment e.
@@ -291,27 +308,35 @@ pub trait FlowBatch: Send {
         None
     }
 
+    /// The channel's grid.
     fn grid(&self) -> &Grid {
         &self.core().grid
     }
+    /// Environments in the batch (E).
     fn n_env(&self) -> usize {
         self.core().n_env
     }
+    /// Members per environment (N).
     fn n_members(&self) -> usize {
         self.core().n_members
     }
+    /// Fluid substeps per control step (S).
     fn substeps(&self) -> usize {
         self.core().substeps
     }
+    /// Batch-wide kernel constants.
     fn params(&self) -> &GpuParams {
         &self.core().params
     }
+    /// Advection scheme.
     fn scheme(&self) -> Advection {
         self.core().scheme
     }
+    /// Inlet centreline-velocity waveform.
     fn waveform(&self) -> &Waveform {
         &self.core().waveform
     }
+    /// Control step length (s).
     fn control_dt(&self) -> f64 {
         self.core().control_dt
     }

@@ -4,15 +4,21 @@
 
 use crate::config::Config;
 
+/// The channel's staggered grid.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Grid {
+    /// Cells along x.
     pub nx: usize,
+    /// Cells across the height.
     pub ny: usize,
+    /// Channel length L (m).
     pub length_m: f64,
+    /// Channel height H (m).
     pub height_m: f64,
 }
 
 impl Grid {
+    /// The grid of `c`'s `[domain]`.
     pub fn from_config(c: &Config) -> Self {
         Self {
             nx: c.domain.nx as usize,
@@ -22,10 +28,12 @@ impl Grid {
         }
     }
 
+    /// Cell width L / nx (m).
     pub fn dx(&self) -> f64 {
         self.length_m / self.nx as f64
     }
 
+    /// Cell height H / ny (m).
     pub fn dy(&self) -> f64 {
         self.height_m / self.ny as f64
     }
@@ -40,18 +48,22 @@ impl Grid {
         (self.ny + 1) * self.nx
     }
 
+    /// Cells per environment: ny x nx.
     pub fn n_cells(&self) -> usize {
         self.nx * self.ny
     }
 
+    /// Index of u face (i, j) in one environment's `[ny][nx+1]` slice.
     pub fn u_idx(&self, i: usize, j: usize) -> usize {
         j * (self.nx + 1) + i
     }
 
+    /// Index of v face (i, j) in one environment's `[ny+1][nx]` slice.
     pub fn v_idx(&self, i: usize, j: usize) -> usize {
         j * self.nx + i
     }
 
+    /// Index of cell (i, j) in one environment's `[ny][nx]` slice.
     pub fn c_idx(&self, i: usize, j: usize) -> usize {
         j * self.nx + i
     }

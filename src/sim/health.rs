@@ -1,5 +1,5 @@
 //! Per-environment health after a control step: the one small read-back of each step.
-//! Layout of the GPU health buffer: [E][2] vec4<f32> (see `shaders/diagnostics.wgsl`).
+//! Layout of the GPU health buffer: `[E][2]` `vec4<f32>` (see `shaders/diagnostics.wgsl`).
 
 /// Velocity magnitude above which an environment counts as diverged (m/s; SPEC section 3).
 pub const DIVERGENCE_SPEED_M_S: f32 = 10.0;
@@ -10,10 +10,12 @@ pub const DIVERGENCE_SPEED_M_S: f32 = 10.0;
 /// a margin for long runs and obstacles.
 pub const DIV_TOLERANCE: f64 = 1e-4;
 
+/// Health of one environment after a control step.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EnvHealth {
     /// Smallest and largest volume flux per unit depth over all cross-sections x = i dx (m^2/s).
     pub flux_min: f32,
+    /// Largest volume flux per unit depth over all cross-sections (m^2/s).
     pub flux_max: f32,
     /// Largest |div u| over all cells after the projection (1/s).
     pub max_div: f32,
@@ -28,6 +30,7 @@ pub struct EnvHealth {
 }
 
 impl EnvHealth {
+    /// Unpacks the two vec4 of the GPU health buffer for one environment.
     pub fn from_raw(raw: &[[f32; 4]; 2]) -> Self {
         let [a, b] = raw;
         Self {
@@ -50,6 +53,7 @@ impl EnvHealth {
         }
     }
 
+    /// No non-finite values, and finite max speed and flux.
     pub fn is_finite(&self) -> bool {
         self.nonfinite == 0 && self.max_speed.is_finite() && self.flux_min.is_finite()
     }

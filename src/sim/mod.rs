@@ -1,6 +1,6 @@
 //! The batched channel-flow simulation behind one trait ([`FlowBatch`]) with two backends:
 //! the WGSL kernels ([`GpuBatch`], `fluid`) and the CPU stages ([`CpuBatch`], [`cpu`]), which
-//! are also the reference the kernels are tested against. [`open`] picks the backend per
+//! are also the reference the kernels are tested against. [`open`](mod@open) picks the backend per
 //! `solver.backend`. Beside them: grid geometry ([`grid`]), the fast Poisson solver's tables
 //! ([`poisson`]) and the per-environment health ([`health`]).
 

@@ -21,6 +21,7 @@ pub const SELF_CHECK_TOLERANCE: f32 = 1e-4;
 
 /// A batch ready to step, with what runs it and why.
 pub struct Opened {
+    /// The batch, on the backend chosen.
     pub batch: Box<dyn FlowBatch>,
     /// Why this backend runs, for the run header (e.g. "solver.backend = \"native\"").
     pub why: String,

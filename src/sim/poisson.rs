@@ -2,11 +2,11 @@
 //!
 //! The 5-point Laplacian on the cells, with Neumann walls and inlet and p = 0 on the outlet
 //! face, is separable: L = Lx (x) I + I (x) Ly. Ly (Neumann-Neumann, ny x ny) is diagonalised by
-//! the orthonormal DCT-II  Q[j][k] = c_k cos(pi k (j + 1/2) / ny)  with eigenvalues
+//! the orthonormal DCT-II  Q`[j][k]` = c_k cos(pi k (j + 1/2) / ny)  with eigenvalues
 //! lambda_k = -4 sin^2(pi k / (2 ny)) / dy^2. Each mode k leaves a tridiagonal system along x,
-//!   p[i-1] + (-2 + lambda_k dx^2) p[i] + p[i+1] = dx^2 b[i],
+//!   p`[i-1]` + (-2 + lambda_k dx^2) p`[i]` + p`[i+1]` = dx^2 b`[i]`,
 //! with the first diagonal entry -1 + lambda_k dx^2 (Neumann inlet) and the last
-//! -3 + lambda_k dx^2 (ghost p[nx] = -p[nx-1]). Its Thomas factors (c'[i], 1/m[i]) are
+//! -3 + lambda_k dx^2 (ghost p`[nx]` = -p`[nx-1]`). Its Thomas factors (c'`[i]`, 1/m`[i]`) are
 //! computed here in f64, once.
 //! GPU buffer layout (f32): [Q: ny*ny, Q[j*ny + k]] [c': ny*nx, k-major] [1/m: ny*nx, k-major]
 //! [forward vec4 table] [backward vec4 table] (see [`PoissonTables::forward_packed`] and
@@ -15,9 +15,12 @@
 
 use super::Grid;
 
+/// The fast solver's tables for one grid, in f64.
 #[derive(Debug, Clone)]
 pub struct PoissonTables {
+    /// Cells along x.
     pub nx: usize,
+    /// Cells across the height.
     pub ny: usize,
     /// Q[j * ny + k].
     pub q: Vec<f64>,
@@ -28,6 +31,7 @@ pub struct PoissonTables {
 }
 
 impl PoissonTables {
+    /// Computes Q and the Thomas factors of every mode for `grid`.
     pub fn new(grid: &Grid) -> Self {
         let (nx, ny) = (grid.nx, grid.ny);
         let (dx, dy) = (grid.dx(), grid.dy());
@@ -81,7 +85,7 @@ impl PoissonTables {
         self.ny.div_ceil(2).div_ceil(4)
     }
 
-    /// The forward transform's table, [parity][group][row][4]: entry c is
+    /// The forward transform's table, `[parity][group][row][4]`: entry c is
     /// Q[row][8 group + parity + 2c] (0 past ny, and 0 for odd modes on the middle row of an odd
     /// ny, which they do not reach). Even modes multiply b_j + b_{ny-1-j} (b_mid on the middle
     /// row), odd modes b_j - b_{ny-1-j}.
@@ -107,7 +111,7 @@ impl PoissonTables {
         out
     }
 
-    /// The backward transform's table, [row group][mode][4]: entry c is Q[4 group + c][k]
+    /// The backward transform's table, `[row group][mode][4]`: entry c is Q`[4 group + c][k]`
     /// (0 past the half rows).
     pub fn backward_packed(&self) -> Vec<f64> {
         let (ny, hr) = (self.ny, self.half_rows());

@@ -25,10 +25,18 @@ pub use plan::{Plan, Run};
 pub use record::{Status, TaskRecord};
 pub use spec::{Spec, SweepCommand};
 
+/// Errors of reading, planning, running and recording a sweep.
 #[derive(Debug, Error)]
 pub enum SweepError {
+    /// The spec does not parse or fails its checks.
     #[error("sweep spec {origin}: {message}")]
-    Spec { origin: String, message: String },
+    Spec {
+        /// Where the spec came from (a file name).
+        origin: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// The spec cannot be expanded into runs.
     #[error("sweep plan: {0}")]
     Plan(String),
     #[error(
@@ -36,31 +44,54 @@ pub enum SweepError {
          resume it with the spec it ran ({dir}/sweep.toml), or start the changed sweep in \
          another --out directory"
     )]
+    /// The given spec's hash differs from the one the directory was started from.
     Changed {
+        /// The sweep directory.
         dir: String,
+        /// Where the given spec came from.
         given: String,
+        /// Hash of the spec stored in the directory.
         stored: String,
+        /// Hash of the given spec.
         now: String,
     },
     #[error(
         "{0} is not a sweep directory (no sweep.toml): give the spec, e.g. `fluxswarm-gpu sweep SPEC.toml --out {0}`"
     )]
+    /// The directory holds no `sweep.toml` and no spec was given.
     NotASweep(String),
+    /// A run's task record cannot be read or parsed.
     #[error("sweep record {path}: {message} (delete the file to run that point again)")]
-    Record { path: String, message: String },
+    Record {
+        /// The record file.
+        path: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A file operation failed.
     #[error("{path}: {source}")]
     Io {
+        /// The file or directory.
         path: String,
+        /// The I/O error.
         #[source]
         source: std::io::Error,
     },
+    /// A task index past the number of tasks of the sweep.
     #[error("task {task} is outside this sweep's {tasks} tasks")]
-    NoSuchTask { task: usize, tasks: usize },
+    NoSuchTask {
+        /// The task index asked for.
+        task: usize,
+        /// Number of tasks in the sweep.
+        tasks: usize,
+    },
+    /// The Slurm job array cannot be written.
     #[error("{0}")]
     Slurm(String),
 }
 
 impl SweepError {
+    /// An [`SweepError::Io`] for `path`.
     pub fn io(path: &Path, source: std::io::Error) -> SweepError {
         SweepError::Io {
             path: path.display().to_string(),
@@ -75,7 +106,9 @@ pub const SPEC_FILE: &str = "sweep.toml";
 /// An opened sweep directory.
 #[derive(Debug)]
 pub struct Sweep {
+    /// The sweep directory.
     pub root: PathBuf,
+    /// The runs its spec expands into.
     pub plan: Plan,
 }
 

@@ -15,14 +15,18 @@ use crate::config::RUN_KEYS;
 /// point leaves a key out).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Point {
+    /// One value per key of [`Plan::keys`]; None where an explicit point leaves the key out.
     pub values: Vec<Option<toml::Value>>,
 }
 
 /// One run: a point at a seed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Run {
+    /// Run index: point x seeds + seed index (also the task index of a one-run task).
     pub index: usize,
+    /// Index of the run's point in [`Plan::points`].
     pub point: usize,
+    /// Seed passed as `--seed`.
     pub seed: u64,
     /// Relative to the sweep directory.
     pub dir: String,
@@ -31,9 +35,13 @@ pub struct Run {
 /// The expanded sweep.
 #[derive(Clone, Debug)]
 pub struct Plan {
+    /// The parsed spec.
     pub spec: Spec,
+    /// The point keys, sorted (grid keys or the union over `[[points]]`).
     pub keys: Vec<String>,
+    /// The points, in run order.
     pub points: Vec<Point>,
+    /// Every point at every seed, in index order.
     pub runs: Vec<Run>,
 }
 
@@ -41,6 +49,7 @@ pub struct Plan {
 const RESUME_FLAGS: [&str; 3] = ["--steps", "--checkpoint-every", "--adapter"];
 
 impl Plan {
+    /// Expands `spec` into its points and runs; fails when two runs would share a directory.
     pub fn new(spec: Spec) -> Result<Plan, SweepError> {
         let keys = spec.point_keys();
         let points: Vec<Point> = if spec.points.is_empty() {

@@ -22,7 +22,9 @@ pub const POOL_VAR: &str = "FLUXSWARM_SWEEP_POOL";
 /// How many tasks run at once and the threads of each.
 #[derive(Clone, Copy, Debug)]
 pub struct PoolOptions {
+    /// Tasks running at once.
     pub jobs: usize,
+    /// Threads per task (its RAYON_NUM_THREADS).
     pub threads: usize,
 }
 

@@ -15,14 +15,19 @@ use super::plan::Plan;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Status {
+    /// Not started, or stopped before it finished (resumed next time).
     #[default]
     Pending,
+    /// A task is running it.
     Running,
+    /// Finished successfully.
     Done,
+    /// Finished with an error.
     Failed,
 }
 
 impl Status {
+    /// The status as written in `sweep.csv` and the record.
     pub fn name(self) -> &'static str {
         match self {
             Status::Pending => "pending",
@@ -37,20 +42,27 @@ impl Status {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct TaskRecord {
+    /// The run's status.
     pub status: Status,
     /// Times a task started this run (a requeued or resumed run counts again).
     pub attempts: u32,
     /// The update the last attempt resumed from (train runs with a checkpoint).
     pub resumed_from_update: Option<u64>,
+    /// Host name of the machine that ran the last attempt.
     pub host: String,
+    /// Process id of the last attempt.
     pub pid: u32,
+    /// Rayon threads of the last attempt.
     pub threads: usize,
     /// What ran the control step ("native", or the WGSL adapter's name).
     pub backend: String,
+    /// The commit the binary was built from.
     pub commit: String,
     /// `SLURM_ARRAY_JOB_ID_SLURM_ARRAY_TASK_ID` when Slurm ran it.
     pub slurm_task: String,
+    /// Local start time of the last attempt (`%Y-%m-%dT%H:%M:%S%z`).
     pub started: String,
+    /// Local end time of the last attempt (same format); empty while running.
     pub finished: String,
     /// Why the run failed or stopped.
     pub error: String,

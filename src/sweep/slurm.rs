@@ -15,7 +15,9 @@ use super::spec::SlurmOptions;
 /// The array's shape: `tasks` tasks of `pack` runs each (the last may hold fewer).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Shape {
+    /// Number of array tasks.
     pub tasks: usize,
+    /// Consecutive runs per task.
     pub pack: usize,
 }
 
@@ -23,6 +25,7 @@ pub struct Shape {
 pub const DEFAULT_MAX_ARRAY_SIZE: usize = 1001;
 
 impl Shape {
+    /// The smallest pack that fits `runs` runs into at most `max_array_size` tasks.
     pub fn new(runs: usize, max_array_size: usize) -> Shape {
         let max = max_array_size.max(1);
         let pack = runs.div_ceil(max).max(1);

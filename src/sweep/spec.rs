@@ -16,12 +16,16 @@ use super::SweepError;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SweepCommand {
+    /// `fluxswarm-gpu train`.
     Train,
+    /// `fluxswarm-gpu rollout`.
     Rollout,
+    /// `fluxswarm-gpu eval`.
     Eval,
 }
 
 impl SweepCommand {
+    /// The command's name on the command line.
     pub fn name(self) -> &'static str {
         match self {
             SweepCommand::Train => "train",
@@ -42,7 +46,9 @@ pub struct SlurmOptions {
     pub gpus: Option<u32>,
     /// `--time`, e.g. "04:00:00".
     pub time: Option<String>,
+    /// `--partition`.
     pub partition: Option<String>,
+    /// `--account`.
     pub account: Option<String>,
     /// `--mem`, e.g. "4G".
     pub mem: Option<String>,
@@ -59,17 +65,24 @@ pub struct SlurmOptions {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Spec {
+    /// The command every run calls.
     pub command: SweepCommand,
+    /// Arguments passed to every run.
     #[serde(default)]
     pub args: Vec<String>,
+    /// One run per seed per point, passed as `--seed` (default `[0]`).
     #[serde(default = "default_seeds")]
     pub seeds: Vec<u64>,
+    /// `[set]`: overrides for every run, passed as `--set key=value`.
     #[serde(default)]
     pub set: BTreeMap<String, toml::Value>,
+    /// `[grid]`: key -> values; their cartesian product is the set of points.
     #[serde(default)]
     pub grid: BTreeMap<String, Vec<toml::Value>>,
+    /// `[[points]]`: explicit points instead of a grid.
     #[serde(default)]
     pub points: Vec<BTreeMap<String, toml::Value>>,
+    /// `[slurm]`: job-array options, left out of the hash.
     #[serde(default, skip_serializing)]
     pub slurm: SlurmOptions,
 }

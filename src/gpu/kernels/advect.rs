@@ -5,6 +5,8 @@
 use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Shape, Side, groups};
 use crate::config::Advection;
 
+/// `diffuse`: one explicit diffusion step of the input velocity into w; with members it also
+/// paints the body field.
 pub const DIFFUSE: Entry = Entry {
     name: "diffuse",
     file: "advect.wgsl",
@@ -17,6 +19,7 @@ pub const DIFFUSE: Entry = Entry {
     writes: &[Body, WU, WV],
 };
 
+/// `advect_diffuse`: semi-Lagrangian advection of w with boundary values and Brinkman blending.
 pub const ADVECT_DIFFUSE: Entry = Entry {
     name: "advect_diffuse",
     file: "advect.wgsl",
@@ -29,6 +32,7 @@ pub const ADVECT_DIFFUSE: Entry = Entry {
     writes: &[UOut, VOut],
 };
 
+/// `advect_predict`: the MacCormack predictor, u_hat = A(w).
 pub const ADVECT_PREDICT: Entry = Entry {
     name: "advect_predict",
     file: "advect.wgsl",
@@ -41,6 +45,7 @@ pub const ADVECT_PREDICT: Entry = Entry {
     writes: &[UHat, VHat],
 };
 
+/// `maccormack_correct`: the MacCormack correction, clamped to the extrema of A's stencil.
 pub const MACCORMACK_CORRECT: Entry = Entry {
     name: "maccormack_correct",
     file: "advect.wgsl",
@@ -53,6 +58,7 @@ pub const MACCORMACK_CORRECT: Entry = Entry {
     writes: &[UOut, VOut],
 };
 
+/// The momentum-predictor pipelines of `advect.wgsl`.
 pub struct Advect {
     diffuse: Pipeline,
     semi_lagrangian: Pipeline,
@@ -61,6 +67,7 @@ pub struct Advect {
 }
 
 impl Advect {
+    /// Builds the four pipelines.
     pub fn new(b: &mut Builder<'_>) -> Self {
         Self {
             diffuse: Pipeline::new(b, &DIFFUSE),
@@ -70,6 +77,7 @@ impl Advect {
         }
     }
 
+    /// Dispatch grid (ceil((nx+1)/64), ny+1, E): one thread per u face and v face (i, j).
     pub fn grid(d: Dims) -> [u32; 3] {
         [groups(d.nx + 1, 64), d.ny + 1, d.n_env]
     }
@@ -82,6 +90,8 @@ impl Advect {
         }
     }
 
+    /// Records the predictor's dispatches for `scheme` on side `bind`, at the substep uniform's
+    /// dynamic offset `substep_offset` (bytes).
     pub fn record(
         &self,
         pass: &mut super::Recorder<'_>,

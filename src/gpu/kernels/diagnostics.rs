@@ -3,6 +3,7 @@
 
 use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Shape, Side, groups};
 
+/// `diag_columns`: flux, divergence, speed and non-finite count of each cross-section.
 pub const DIAG_COLUMNS: Entry = Entry {
     name: "diag_columns",
     file: "diagnostics.wgsl",
@@ -15,6 +16,7 @@ pub const DIAG_COLUMNS: Entry = Entry {
     writes: &[ColStats],
 };
 
+/// `diag_reduce`: reduces the cross-section statistics into each environment's health.
 pub const DIAG_REDUCE: Entry = Entry {
     name: "diag_reduce",
     file: "diagnostics.wgsl",
@@ -27,12 +29,14 @@ pub const DIAG_REDUCE: Entry = Entry {
     writes: &[Health],
 };
 
+/// The health pipelines of `diagnostics.wgsl`.
 pub struct Diagnostics {
     columns: Pipeline,
     reduce: Pipeline,
 }
 
 impl Diagnostics {
+    /// Builds both pipelines.
     pub fn new(b: &mut Builder<'_>) -> Self {
         Self {
             columns: Pipeline::new(b, &DIAG_COLUMNS),
@@ -40,6 +44,7 @@ impl Diagnostics {
         }
     }
 
+    /// Records the column statistics and the per-environment reduction.
     pub fn record(&self, pass: &mut super::Recorder<'_>, bind: Side<'_>, offset: u32, d: Dims) {
         self.columns
             .dispatch(pass, bind, offset, [groups(d.nx + 1, 64), d.n_env, 1]);

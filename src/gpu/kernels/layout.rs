@@ -63,7 +63,9 @@ impl Columns {
 pub enum Shape {
     /// The same at every grid: size and bytes of `var<workgroup>` memory.
     Fixed {
+        /// Workgroup size (x, y, z).
         workgroup: [u32; 3],
+        /// Bytes of `var<workgroup>` memory.
         workgroup_bytes: u32,
     },
     /// A column kernel: (LANES, 1, 1) and MAX_NY * LANES f32 of scratch, from [`Columns`].
@@ -73,29 +75,52 @@ pub enum Shape {
 /// Storage bindings 2..=21 of the field buffers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum FieldBinding {
+    /// `u_in`: input u velocity, faces `[E][ny][nx+1]` (m/s).
     UIn = 2,
+    /// `v_in`: input v velocity, faces `[E][ny+1][nx]` (m/s).
     VIn,
+    /// `u_out`: output u velocity, `[E][ny][nx+1]` (m/s).
     UOut,
+    /// `v_out`: output v velocity, `[E][ny+1][nx]` (m/s).
     VOut,
+    /// `u_hat`: like u, vec4 (MacCormack predictor, stencil min, max, transverse velocity).
     UHat,
+    /// `v_hat`: like v, vec4 (MacCormack predictor, stencil min, max, transverse velocity).
     VHat,
+    /// `p`: pressure at cell centres, `[E][ny][nx]` (Pa).
     Pressure,
+    /// `phat`: y-cosine modes of the pressure solve, `[E][ny][nx]` (mode k of column i).
     Modes,
+    /// `body`: per cell vec4 (solid fraction chi, body u, body v, 0), `[E][ny][nx]`.
     Body,
+    /// `inlet`: inlet centreline velocity at the end of each substep, `[E][substeps]` (m/s).
     Inlet,
+    /// `poisson`: the fast solver's tables (Q, Thomas c' and 1/m, the packed transform tables),
+    /// [`crate::sim::poisson::PoissonTables::to_gpu`].
     Poisson,
+    /// `divstar`: max_j abs(div u*) of each column before projection, `[E][nx]` (1/s).
     DivStar,
+    /// `colstats`: per cross-section x = i dx, vec4 (flux, max abs(div u), max speed,
+    /// non-finite count), `[E][nx+1]`.
     ColStats,
+    /// `health`: per-environment health, two vec4 each, `[E][2]`.
     Health,
+    /// `w_u`: u after one explicit diffusion step, like u (m/s).
     WU,
+    /// `w_v`: v after one explicit diffusion step, like v (m/s).
     WV,
+    /// `members`: member position, velocity and pinned flag, `[E][N]`.
     Members,
+    /// `member_diag`: forces on each member in the last substep and its pressure samples, `[E][N]`.
     MemberDiag,
+    /// `thrust`: raw actions a of each member (vec2), `[E][N]`.
     Thrust,
+    /// `swarm_box`: x/y extent of the member centres now and at the last paint, `[E][2]`.
     SwarmBox,
 }
 
 impl FieldBinding {
+    /// Every storage binding, in binding order.
     pub const ALL: [FieldBinding; 20] = [
         Self::UIn,
         Self::VIn,
@@ -157,17 +182,22 @@ impl FieldBinding {
 /// analysis of the module built from it.
 #[derive(Debug)]
 pub struct Entry {
+    /// The entry point's name in its kernel file.
     pub name: &'static str,
     /// The kernel's file name and source (`shaders::*`).
     pub file: &'static str,
+    /// The kernel file's WGSL source.
     pub source: &'static str,
     /// Its workgroup size and `var<workgroup>` memory.
     pub shape: Shape,
+    /// Storage buffers the entry point only reads.
     pub reads: &'static [FieldBinding],
+    /// Storage buffers the entry point writes (and may read).
     pub writes: &'static [FieldBinding],
 }
 
 impl Entry {
+    /// Storage buffers the entry point binds (reads plus writes).
     pub fn storage_buffers(&self) -> u32 {
         (self.reads.len() + self.writes.len()) as u32
     }
@@ -190,6 +220,7 @@ impl Entry {
         }
     }
 
+    /// Invocations per workgroup in the module built for `cols`.
     pub fn invocations(&self, cols: Columns) -> u32 {
         self.workgroup(cols).iter().product()
     }

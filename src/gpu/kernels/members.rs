@@ -4,6 +4,7 @@
 
 use super::{Builder, Dims, Entry, FieldBinding::*, Pipeline, Shape, Side, groups};
 
+/// `paint_bodies`: writes the body field from the members.
 pub const PAINT_BODIES: Entry = Entry {
     name: "paint_bodies",
     file: "members.wgsl",
@@ -16,6 +17,7 @@ pub const PAINT_BODIES: Entry = Entry {
     writes: &[Body],
 };
 
+/// `move_members`: forces on each member and one substep of its motion.
 pub const MOVE_MEMBERS: Entry = Entry {
     name: "move_members",
     file: "members.wgsl",
@@ -28,12 +30,14 @@ pub const MOVE_MEMBERS: Entry = Entry {
     writes: &[Members, MemberDiag, SwarmBox],
 };
 
+/// The swarm pipelines of `members.wgsl`.
 pub struct Members {
     paint: Pipeline,
     step: Pipeline,
 }
 
 impl Members {
+    /// Builds both pipelines.
     pub fn new(b: &mut Builder<'_>) -> Self {
         Self {
             paint: Pipeline::new(b, &PAINT_BODIES),

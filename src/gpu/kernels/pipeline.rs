@@ -27,12 +27,19 @@ impl Builder<'_> {
 /// Every fluid pipeline (compiled per batch: the column kernels follow its ny) and their bind
 /// group layouts.
 pub struct Kernels {
+    /// Momentum predictor.
     pub advect: Advect,
+    /// Poisson right-hand side.
     pub rhs: PressureRhs,
+    /// Sequential per-mode tridiagonal solve.
     pub solve: PressureSolve,
+    /// Scan per-mode tridiagonal solve.
     pub scan: PressureScan,
+    /// Pressure back-transform and velocity correction.
     pub project: Project,
+    /// Per-environment health.
     pub diagnostics: Diagnostics,
+    /// Body painting and member motion.
     pub members: Members,
     layouts: Vec<(wgpu::BindGroupLayout, &'static Entry)>,
 }
@@ -64,7 +71,7 @@ impl Kernels {
     }
 
     /// The bind groups of every pipeline for one batch, both sides of the ping-pong:
-    /// `buffer(which, g)` is the buffer bound at `which` on side g (side g reads u[g], v[g]).
+    /// `buffer(which, g)` is the buffer bound at `which` on side g (side g reads u`[g]`, v`[g]`).
     pub fn bind_groups<'b>(
         &self,
         device: &wgpu::Device,
@@ -130,7 +137,7 @@ pub struct BindGroups {
 }
 
 impl BindGroups {
-    /// Side g: the bind groups that read u[g], v[g] and write u[1-g], v[1-g].
+    /// Side g: the bind groups that read u`[g]`, v`[g]` and write u`[1-g]`, v`[1-g]`.
     pub fn side(&self, g: usize) -> Side<'_> {
         Side { groups: self, g }
     }
@@ -157,6 +164,7 @@ struct Timer<'a> {
 }
 
 impl<'a> Recorder<'a> {
+    /// A recorder without timestamps.
     pub fn new(pass: wgpu::ComputePass<'a>) -> Self {
         Self { pass, timer: None }
     }
@@ -188,6 +196,7 @@ pub struct Pipeline {
 }
 
 impl Pipeline {
+    /// Compiles `entry`'s module for the builder's column layout, with its own bind group layout.
     pub fn new(b: &mut Builder<'_>, entry: &'static Entry) -> Self {
         let device = b.device;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -252,8 +261,11 @@ impl Pipeline {
 /// Grid sizes the dispatch shapes need.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Dims {
+    /// Cells along x.
     pub nx: u32,
+    /// Cells across the height.
     pub ny: u32,
+    /// Environments in the batch (E).
     pub n_env: u32,
 }
 

@@ -4,6 +4,7 @@
 
 use super::{Builder, Columns, Dims, Entry, FieldBinding::*, Pipeline, Shape, Side, groups};
 
+/// `pressure_rhs`: y-cosine modes of rho/dt div u* per column, and each column's divstar.
 pub const PRESSURE_RHS: Entry = Entry {
     name: "pressure_rhs",
     file: "pressure_rhs.wgsl",
@@ -13,12 +14,14 @@ pub const PRESSURE_RHS: Entry = Entry {
     writes: &[Modes, DivStar],
 };
 
+/// The Poisson right-hand-side pipeline, built for the batch's [`Columns`].
 pub struct PressureRhs {
     pipeline: Pipeline,
     columns: Columns,
 }
 
 impl PressureRhs {
+    /// Builds the pipeline for the builder's column layout.
     pub fn new(b: &mut Builder<'_>) -> Self {
         Self {
             pipeline: Pipeline::new(b, &PRESSURE_RHS),
@@ -26,6 +29,7 @@ impl PressureRhs {
         }
     }
 
+    /// Records the dispatch, one thread per column (ny must fit the column layout).
     pub fn record(&self, pass: &mut super::Recorder<'_>, bind: Side<'_>, offset: u32, d: Dims) {
         debug_assert!(
             d.ny <= self.columns.max_ny,

@@ -4,6 +4,7 @@
 
 use super::{Builder, Columns, Dims, Entry, FieldBinding::*, Pipeline, Shape, Side, groups};
 
+/// `pressure_back`: cell pressure (Pa) from the solved y-modes.
 pub const PRESSURE_BACK: Entry = Entry {
     name: "pressure_back",
     file: "project.wgsl",
@@ -13,6 +14,7 @@ pub const PRESSURE_BACK: Entry = Entry {
     writes: &[Pressure],
 };
 
+/// `project`: subtracts dt / rho times the pressure gradient from the predicted velocity.
 pub const PROJECT: Entry = Entry {
     name: "project",
     file: "project.wgsl",
@@ -25,6 +27,7 @@ pub const PROJECT: Entry = Entry {
     writes: &[UOut, VOut],
 };
 
+/// The projection pipelines of `project.wgsl`, built for the batch's [`Columns`].
 pub struct Project {
     back: Pipeline,
     correct: Pipeline,
@@ -32,6 +35,7 @@ pub struct Project {
 }
 
 impl Project {
+    /// Builds both pipelines for the builder's column layout.
     pub fn new(b: &mut Builder<'_>) -> Self {
         Self {
             back: Pipeline::new(b, &PRESSURE_BACK),
@@ -40,6 +44,7 @@ impl Project {
         }
     }
 
+    /// Records the pressure back-transform, then the velocity correction.
     pub fn record(&self, pass: &mut super::Recorder<'_>, bind: Side<'_>, offset: u32, d: Dims) {
         debug_assert!(
             d.ny <= self.columns.max_ny,

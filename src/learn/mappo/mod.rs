@@ -12,8 +12,8 @@
 //! after every update, for checkpoints and the candle reference networks of the tests.
 //! Samples are joint transitions (one environment at one step); each epoch splits them into
 //! `minibatches` random minibatches.
-//! The learner's state and construction are here; acting and the rollout ([`rollout`]), the
-//! update ([`update`]) and checkpoints ([`state`]) are its other jobs.
+//! The learner's state and construction are here; acting and the rollout (`rollout`), the
+//! update (`update`) and checkpoints (`state`) are its other jobs.
 
 mod rollout;
 mod state;
@@ -48,8 +48,11 @@ pub use crate::config::Train as TrainConfig;
 pub struct UpdateStats {
     /// Mean surrogate loss per objective (progress, energy, smoothness).
     pub loss: [f64; 3],
+    /// Mean value loss (0.5 x the sum of the three heads' MSE) over minibatches.
     pub value_loss: f64,
+    /// Mean policy entropy per agent (summed over the 2 action dims) over minibatches.
     pub entropy: f64,
+    /// Mean log-std of the Gaussian policy over minibatches.
     pub mean_log_std: f64,
     /// Mean cosine between the objective gradients: (p,e), (p,s), (e,s).
     pub cosine: [f64; 3],
@@ -60,6 +63,7 @@ pub struct UpdateStats {
 /// One rollout and update.
 #[derive(Debug, Clone)]
 pub struct Iteration {
+    /// Statistics of the update.
     pub stats: UpdateStats,
     /// Episodes that ended during the rollout.
     pub episodes: Vec<EpisodeSummary>,
@@ -67,6 +71,7 @@ pub struct Iteration {
     pub env_steps: usize,
     /// Wall time inside `env.step` and everything else (acting, GAE, the update) (s).
     pub sim_s: f64,
+    /// Wall time of everything outside `env.step` in this iteration (s).
     pub learn_s: f64,
 }
 
@@ -81,7 +86,9 @@ struct ActorGradients {
     mean_log_std: f64,
 }
 
+/// The MOMAPPO learner: actor, critic, their Adam states, the normaliser and the RNG.
 pub struct Learner {
+    /// Hyperparameters it trains with.
     pub cfg: TrainConfig,
     agents: usize,
     obs_dim: usize,
@@ -166,6 +173,7 @@ pub fn learner_threads() -> Result<usize, LearnError> {
 }
 
 impl Learner {
+    /// A learner for `agents` agents with `obs_dim` observations, parameters seeded from `seed`.
     pub fn new(
         agents: usize,
         obs_dim: usize,
@@ -237,7 +245,7 @@ impl Learner {
         })
     }
 
-    /// Observations [rows][D] as the networks see them (normalised when that is on).
+    /// Observations `[rows][D]` as the networks see them (normalised when that is on).
     pub fn normalize(&self, obs: &[f32]) -> Vec<f32> {
         match &self.normalizer {
             Some(n) => n.apply(obs),
@@ -245,6 +253,7 @@ impl Learner {
         }
     }
 
+    /// candle's variables (actor and critic), updated after every update.
     pub fn var_map(&self) -> &VarMap {
         &self.map
     }

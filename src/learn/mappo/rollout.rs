@@ -5,8 +5,8 @@
 use super::*;
 
 impl Learner {
-    /// Sampled (or mean) raw actions [E][N] and joint log-probabilities [E] for network inputs
-    /// [E][N][D] (observations passed through [`Self::normalize`]).
+    /// Sampled (or mean) raw actions `[E][N]` and joint log-probabilities `[E]` for network inputs
+    /// `[E][N][D]` (observations passed through [`Self::normalize`]).
     pub fn act(
         &mut self,
         obs: &[f32],
@@ -42,7 +42,7 @@ impl Learner {
         Ok((actions, lp))
     }
 
-    /// Values [B][N][3] of joint states given as network inputs [B][N][D].
+    /// Values `[B][N][3]` of joint states given as network inputs `[B][N][D]`.
     pub fn values(&self, obs: &[f32]) -> Result<Vec<f32>, LearnError> {
         self.pool.install(|| {
             let (n, b) = (self.agents, obs.len() / (self.agents * self.obs_dim));

@@ -12,8 +12,8 @@
 use super::{Layout, Weights, layer_grads, slots};
 use crate::learn::nets::{HIDDEN, LOG_STD_MAX, LOG_STD_MIN};
 
-/// The actor's parameters in name order: head.bias [2A], head.weight [2A, H], l1.bias [H],
-/// l1.weight [H, obs], l2.bias [H], l2.weight [H, H].
+/// The actor's parameters in name order: head.bias `[2A]`, head.weight `[2A, H]`, l1.bias `[H]`,
+/// l1.weight `[H, obs]`, l2.bias `[H]`, l2.weight `[H, H]`.
 pub fn layout(obs_dim: usize, action_dim: usize) -> Layout {
     let (h, a2) = (HIDDEN, 2 * action_dim);
     Layout::new(vec![
@@ -29,13 +29,17 @@ pub fn layout(obs_dim: usize, action_dim: usize) -> Layout {
 /// One forward pass and the activations the backward pass needs; all row-major.
 #[derive(Debug, Clone)]
 pub struct ActorActs {
+    /// Number of rows R (one per agent sample).
     pub rows: usize,
     /// Inputs [R, obs], the hidden layers' tanh outputs [R, H].
     pub x: Vec<f32>,
+    /// First hidden layer's tanh output [R, H].
     pub h1: Vec<f32>,
+    /// Second hidden layer's tanh output [R, H].
     pub h2: Vec<f32>,
     /// [R, A] each.
     pub mean: Vec<f32>,
+    /// Clamped log σ [R, A].
     pub log_std: Vec<f32>,
 }
 
@@ -122,7 +126,7 @@ pub fn backward(
     grads
 }
 
-/// Joint log-probabilities [B] of raw actions [B n, A] under N(mean, exp(log σ)): the sum over
+/// Joint log-probabilities `[B]` of raw actions `[B n, A]` under N(mean, exp(log σ)): the sum over
 /// each sample's n rows and the A dimensions of -z^2 / 2 - log σ - ln(2 pi) / 2,
 /// z = (a - mean) / σ (as [`crate::learn::nets::gaussian_log_prob`] computes it per row).
 pub fn joint_log_prob(actions: &[f32], mean: &[f32], log_std: &[f32], n: usize) -> Vec<f32> {

@@ -14,8 +14,8 @@ use crate::learn::nets::HIDDEN;
 /// The heads in output order.
 pub const HEADS: [&str; 3] = ["progress", "energy", "smoothness"];
 
-/// The critic's parameters in name order: energy.{bias [N], weight [N, H]}, l1.{bias [H],
-/// weight [H, N obs]}, l2.{bias [H], weight [H, H]}, progress.{..}, smoothness.{..}.
+/// The critic's parameters in name order: energy.{bias `[N]`, weight `[N, H]`}, l1.{bias `[H]`,
+/// weight `[H, N obs]`}, l2.{bias `[H]`, weight `[H, H]`}, progress.{..}, smoothness.{..}.
 pub fn layout(agents: usize, obs_dim: usize) -> Layout {
     let (h, n) = (HIDDEN, agents);
     Layout::new(vec![
@@ -35,10 +35,15 @@ pub fn layout(agents: usize, obs_dim: usize) -> Layout {
 /// One forward pass: inputs [B, N obs], hidden tanh outputs [B, H], values [B, 3, N].
 #[derive(Debug, Clone)]
 pub struct CriticActs {
+    /// Number of rows B (joint states).
     pub rows: usize,
+    /// Inputs [B, N obs].
     pub x: Vec<f32>,
+    /// First hidden layer's tanh output [B, H].
     pub h1: Vec<f32>,
+    /// Second hidden layer's tanh output [B, H].
     pub h2: Vec<f32>,
+    /// Values [B, 3, N] (heads in [`HEADS`] order).
     pub values: Vec<f32>,
 }
 

@@ -10,7 +10,7 @@
 //! dy_u [R, out] weighted per sample into K losses (w [K, U, S], the R rows are S samples of
 //! R / S rows each):
 //!
-//!   dW_k = sum_u dy_u^T diag(w[k, u, s(r)]) x,   db_k = sum_u sum_r w[k, u, s(r)] dy_u[r],
+//!   dW_k = sum_u dy_u^T diag(w`[k, u, s(r)]`) x,   db_k = sum_u sum_r w`[k, u, s(r)]` dy_u`[r]`,
 //!   dx_u = (dy_u W) (1 - x^2)   (through the layer and the tanh that made its input x),
 //!
 //! so every layer is one matrix product over all R rows per (set, loss) pair that has nonzero
@@ -57,6 +57,7 @@ impl Layout {
         self.total
     }
 
+    /// Whether the layout holds no parameters.
     pub fn is_empty(&self) -> bool {
         self.total == 0
     }
@@ -82,7 +83,7 @@ impl Layout {
         &flat[self.slot(name)]
     }
 
-    /// A dense layer `prefix.weight` [out, in], `prefix.bias` [out] of `flat`.
+    /// A dense layer `prefix.weight` `[out, in]`, `prefix.bias` `[out]` of `flat`.
     pub fn dense<'a>(&self, flat: &'a [f32], prefix: &str) -> Dense<'a> {
         let w = self.get(flat, &format!("{prefix}.weight"));
         let b = self.get(flat, &format!("{prefix}.bias"));
@@ -95,12 +96,16 @@ impl Layout {
     }
 }
 
-/// A linear layer y = x W^T + b: W [out, in] row-major, b [out].
+/// A linear layer y = x W^T + b: W `[out, in]` row-major, b `[out]`.
 #[derive(Clone, Copy)]
 pub struct Dense<'a> {
+    /// Weights W [out, in], row-major.
     pub w: &'a [f32],
+    /// Bias b `[out]`.
     pub b: &'a [f32],
+    /// Output width.
     pub out: usize,
+    /// Input width.
     pub inp: usize,
 }
 
@@ -143,9 +148,13 @@ impl Dense<'_> {
 /// How U sets of row gradients make K losses: `w` [K, U, S], rows grouped into S samples.
 #[derive(Clone, Copy)]
 pub struct Weights<'a> {
+    /// Weights [K, U, S], row-major.
     pub w: &'a [f32],
+    /// Number of losses K.
     pub losses: usize,
+    /// Number of gradient sets U.
     pub sets: usize,
+    /// Number of samples S the rows are grouped into.
     pub samples: usize,
 }
 
@@ -160,7 +169,7 @@ impl Weights<'_> {
 }
 
 /// Every loss's weight and bias gradient of a layer with input x [R, in] and output gradients
-/// `dy` [U][R][out] (module header), added into each loss's flat gradient `grads[k]` at
+/// `dy` `[U][R][out]` (module header), added into each loss's flat gradient `grads[k]` at
 /// `slots` = (weight range, bias range).
 ///
 /// Per set u, over the m losses that use it (a pair whose weights are all zero adds nothing and

@@ -3,10 +3,10 @@
 //! MacCormack (forward predictor, backward corrector, clamped to the predictor stencil's
 //! extrema), then the inlet profile u(0, y) = 4 U y (H - y) / H^2, v = 0 on the walls, and
 //! the Brinkman blend with the body velocity, (1 - chi) w + chi w_body, on each face.
-//! Mirrors `shaders/advect.wgsl`. Shapes: u, u_out [ny][nx+1]; v, v_out [ny+1][nx];
-//! body [ny][nx] (chi, u_body, v_body, 0); w and the predictor padded with their ghosts
-//! ([`super::sample`]). Works a row of faces at a time: departure points from the face
-//! velocities, then the row's samples ([`sample_row`]), then the update. The Brinkman blend
+//! Mirrors `shaders/advect.wgsl`. Shapes: u, u_out `[ny][nx+1]`; v, v_out `[ny+1][nx]`;
+//! body `[ny][nx]` (chi, u_body, v_body, 0); w and the predictor padded with their ghosts
+//! (`sample`). Works a row of faces at a time: departure points from the face
+//! velocities, then the row's samples (`sample_row`), then the update. The Brinkman blend
 //! visits only the cells of `solid` (every other cell has chi = 0, where it is the identity).
 
 use std::ops::Range;

@@ -41,8 +41,11 @@ use crate::gpu::params::GpuParams;
 /// Flops and f32 loads and stores of some work.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Work {
+    /// Floating-point operations, counted as the module header says.
     pub flops: u64,
+    /// f32 elements loaded.
     pub loads: u64,
+    /// f32 elements stored.
     pub stores: u64,
 }
 
@@ -92,19 +95,25 @@ pub struct BodyLoad {
     /// swarm box that the paint may touch and clears again; without: the extent of chi > 0),
     /// its rows and columns.
     pub rect_rows: u64,
+    /// Columns of that rectangle.
     pub rect_cols: u64,
     /// u faces (of the ny nx advected) and interior v faces next to a cell with chi > 0.
     pub solid_u_faces: u64,
+    /// Interior v faces next to a cell with chi > 0.
     pub solid_v_faces: u64,
     /// The paint's (member, cell) visits in each member's window, (member, row) pairs, and the
     /// visits inside the swarm box grown by r + dx (these compute a distance and chi).
     pub paint_visits: u64,
+    /// The paint's (member, row) pairs.
     pub paint_rows: u64,
+    /// Paint visits inside the swarm box grown by r + dx.
     pub paint_hits: u64,
     /// Members not pinned, ordered pairs of distinct members within 2 r, and those of them
     /// whose first member is not pinned.
     pub free_members: u64,
+    /// Ordered pairs of distinct members within 2 r.
     pub touching_pairs: u64,
+    /// Touching pairs whose first member is not pinned.
     pub touching_free_pairs: u64,
 }
 
@@ -248,6 +257,7 @@ fn fft_dct(n: u64) -> u64 {
 /// The work of each stage.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct StageWork {
+    /// Work per stage, indexed by [`CpuStage::index`].
     pub work: [Work; CpuStage::COUNT],
 }
 
@@ -432,7 +442,7 @@ pub fn paint(load: &BodyLoad) -> Work {
     )
 }
 
-/// The members' forces and step (per member: [`cost::MEMBER`], the drag law when on, the
+/// The members' forces and step (per member: `MEMBER`, the drag law when on, the
 /// distance to every member and the contact of touching pairs; per free member the step and
 /// four constraint passes over every member). Loads: each member's state (5) and action (2),
 /// its 48 samples of p, u, v (4 points x 4 corners x 3 fields) and the positions of the others

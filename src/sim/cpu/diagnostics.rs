@@ -2,7 +2,7 @@
 //! `shaders/diagnostics.wgsl`: the volume flux per unit depth through every cross-section
 //! x = i dx (min, max, and at the inlet), max |div u| per cell, max |u|, |v| on any face, the
 //! number of non-finite values among u, v, p and div u, and max |div u*| before the projection.
-//! Shapes: u [ny][nx+1], v [ny+1][nx], p [ny][nx], divstar [nx].
+//! Shapes: u `[ny][nx+1]`, v `[ny+1][nx]`, p `[ny][nx]`, divstar `[nx]`.
 
 use super::stencil::Dim;
 use crate::sim::EnvHealth;

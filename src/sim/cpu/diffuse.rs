@@ -1,7 +1,7 @@
 //! Explicit viscous diffusion of the input velocity, w = u + dt nu lap u, on every face
 //! (inlet u faces and the wall v faces keep u and 0), the first half of the momentum predictor.
-//! Mirrors `diffuse` in `shaders/advect.wgsl`. Shapes: u [ny][nx+1], v [ny+1][nx]; w_u, w_v
-//! padded with their ghosts as in [`super::sample`], ready to be sampled.
+//! Mirrors `diffuse` in `shaders/advect.wgsl`. Shapes: u `[ny][nx+1]`, v `[ny+1][nx]`; w_u, w_v
+//! padded with their ghosts as in `sample`, ready to be sampled.
 //! Cost: 5 loads, 1 store and 10 flops per face; interior runs of a row go through a
 //! branch-free loop (which the compiler vectorises), faces next to a boundary map their ghosts.
 

@@ -1,11 +1,11 @@
 //! The swarm members of one environment (SPEC section 2), mirroring `shaders/members.wgsl`:
 //! - `paint_bodies`: the body field, chi = clamp(1/2 + (r - d)/dx, 0, 1) of the nearest
-//!   member with its velocity, [ny][nx] (chi, u_body, v_body, 0); only cells near the swarm's
+//!   member with its velocity, `[ny][nx]` (chi, u_body, v_body, 0); only cells near the swarm's
 //!   box are visited, every other cell is fluid;
 //! - `move_members`: the pressure force from four samples at R_s (-pi r/2 depth dp), the
 //!   Schiller-Naumann drag (implicit in v), the propulsion F_max a / max(1, |a|) and contact
 //!   forces, a semi-implicit Euler step, then four passes of overlap and wall constraints.
-//!   Shapes: members, actions, diags [N]; u, v, p of the environment; box [4]
+//!   Shapes: members, actions, diags `[N]`; u, v, p of the environment; box `[4]`
 //!   (x_min, x_max, y_min, y_max of the centres).
 
 use std::f32::consts::PI;

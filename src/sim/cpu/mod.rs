@@ -1,6 +1,6 @@
-//! The CPU control step, written once, a module per stage: [`diffuse`], [`advect`],
-//! [`pressure`] (right-hand side, tridiagonal solve, back-transform), [`project`], [`members`]
-//! (paint, move) and [`diagnostics`]. It is both the production CPU backend ([`CpuBatch`],
+//! The CPU control step, written once, a module per stage: [`diffuse`], [`advect`](mod@advect),
+//! [`pressure`] (right-hand side, tridiagonal solve, back-transform), [`project`](mod@project), [`members`]
+//! (paint, move) and [`diagnostics`](mod@diagnostics). It is both the production CPU backend ([`CpuBatch`],
 //! `solver.backend = "native"`) and the reference the WGSL kernels are tested against
 //! ([`stages`] applies each stage to a whole batch as a kernel does).
 //!
@@ -10,8 +10,8 @@
 //!   pressure  phat = Q^T (rho/dt div u*); (L_x + lambda_k) p_k = phat_k; p = Q p_k
 //!   project   u = u* - dt/rho grad p
 //!   move      members forced and moved in (u, p)               (with a swarm)
-//! State ([`BatchState`], environment outermost): u [E][ny][nx+1], v [E][ny+1][nx],
-//! p and body [E][ny][nx], divstar [E][nx], members and actions [E][N], boxes [E].
+//! State ([`BatchState`], environment outermost): u `[E][ny][nx+1]`, v `[E][ny+1][nx]`,
+//! p and body `[E][ny][nx]`, divstar `[E][nx]`, members and actions `[E][N]`, boxes `[E]`.
 //! Environments are independent: one rayon task steps one environment through a whole control
 //! step, so the result does not depend on the number of threads. [`timing`] times the stages
 //! when asked ([`BatchState::step_timed`], [`CpuBatch::profile_step`]) and [`counts`] counts
@@ -56,18 +56,27 @@ use timing::StageClock;
 /// steps one in place.
 #[derive(Debug, Clone)]
 pub struct BatchState {
+    /// Batch-wide constants, as the kernels read them.
     pub params: GpuParams,
+    /// Advection scheme.
     pub scheme: Advection,
     /// The fast solver's tables ([`crate::sim::poisson::PoissonTables::to_gpu`]).
     pub poisson: Vec<f32>,
+    /// u face velocities `[E][ny][nx+1]` (m/s).
     pub u: Vec<f32>,
+    /// v face velocities `[E][ny+1][nx]` (m/s).
     pub v: Vec<f32>,
+    /// Cell pressure `[E][ny][nx]` (Pa).
     pub p: Vec<f32>,
+    /// Body field (chi, u_body, v_body, 0) `[E][ny][nx]`.
     pub body: Vec<[f32; 4]>,
+    /// max_j abs(div u*) of each column before the projection `[E][nx]` (1/s).
     pub divstar: Vec<f32>,
-    /// Members [E][N], their raw actions and the swarm boxes [E] (empty without a swarm).
+    /// Members `[E][N]`, their raw actions and the swarm boxes `[E]` (empty without a swarm).
     pub members: Vec<GpuMember>,
+    /// Raw actions `[E][N]`.
     pub actions: Vec<[f32; 2]>,
+    /// Swarm box (x_min, x_max, y_min, y_max) of the member centres `[E]` (m).
     pub boxes: Vec<[f32; 4]>,
 }
 
@@ -119,7 +128,7 @@ fn chunks<T>(data: &mut [T], len: usize, n_env: usize) -> Vec<&mut [T]> {
 }
 
 impl BatchState {
-    /// One control step of every environment; `inlet` is [E][S]. With members, each substep
+    /// One control step of every environment; `inlet` is `[E][S]`. With members, each substep
     /// paints them into the body field first and moves them after the projection.
     pub fn step(&mut self, inlet: &[f32]) -> Vec<EnvHealth> {
         let ne = self.params.n_env as usize;
@@ -129,7 +138,7 @@ impl BatchState {
     }
 
     /// [`Self::step`] with the caller's scratch (one per environment) and the members' forces
-    /// of the last substep written to `diags` [E][N].
+    /// of the last substep written to `diags` `[E][N]`.
     pub fn step_with(
         &mut self,
         inlet: &[f32],
@@ -139,7 +148,7 @@ impl BatchState {
         self.step_inner(inlet, scratch, diags, None)
     }
 
-    /// [`Self::step_with`] with each environment's stage times added to `times` [E]; the
+    /// [`Self::step_with`] with each environment's stage times added to `times` `[E]`; the
     /// same state, bit for bit.
     pub fn step_timed(
         &mut self,

@@ -8,7 +8,7 @@
 //! - `back`: p = Q p_k per column (even and odd mode sums give a row and its mirror).
 //!
 //! Mirrors `pressure_rhs.wgsl`, `pressure_solve.wgsl` and `pressure_back` in `project.wgsl`.
-//! Shapes: u* [ny][nx+1], v* [ny+1][nx], modes and p [ny][nx] (modes[k][i]), divstar [nx],
+//! Shapes: u* `[ny][nx+1]`, v* `[ny+1][nx]`, modes and p `[ny][nx]` (modes`[k][i]`), divstar `[nx]`,
 //! poisson [ny*ny | ny*nx | ny*nx]. Columns are handled `BLOCK` at a time so that their sums
 //! run side by side in vector registers, each column's in the same order as the kernels; the
 //! block's column values live in a scratch of ny x BLOCK. From [`FAST_Y_MIN`] cells across,

@@ -1,7 +1,7 @@
 //! The velocity correction of the projection, u = u* - dt/rho grad p, on every interior face
 //! (the outlet face sees the ghost p = -p_last, i.e. p = 0 on the face; the inlet u faces and
 //! the wall v faces keep their boundary values). Mirrors `project` in `shaders/project.wgsl`.
-//! Shapes: u [ny][nx+1], v [ny+1][nx], p [ny][nx]. 2 loads, 1 store, 4 flops per face.
+//! Shapes: u `[ny][nx+1]`, v `[ny+1][nx]`, p `[ny][nx]`. 2 loads, 1 store, 4 flops per face.
 
 use super::stencil::Dim;
 

@@ -1,4 +1,4 @@
-//! Each CPU stage applied to a whole batch [E] as its WGSL kernel is, for the kernel tests
+//! Each CPU stage applied to a whole batch `[E]` as its WGSL kernel is, for the kernel tests
 //! (`tests/kernels.rs`, `tests/swarm.rs`): the same functions the CPU step calls, looped over
 //! the environments. Shapes as in [`super::BatchState`].
 
@@ -11,12 +11,15 @@ use crate::sim::EnvHealth;
 
 /// Inputs of the momentum predictor for the whole batch.
 pub struct AdvectInputs<'a> {
+    /// Input u face velocities `[E][ny][nx+1]` (m/s).
     pub u: &'a [f32],
+    /// Input v face velocities `[E][ny+1][nx]` (m/s).
     pub v: &'a [f32],
-    /// [E][ny][nx] (chi, u_body, v_body, 0).
+    /// `[E][ny][nx]` (chi, u_body, v_body, 0).
     pub body: &'a [[f32; 4]],
-    /// [E][S] inlet centreline velocity.
+    /// `[E][S]` inlet centreline velocity.
     pub inlet: &'a [f32],
+    /// Index of the substep within the control step (selects the inlet value).
     pub substep: usize,
 }
 
@@ -46,7 +49,7 @@ pub fn advect(p: &GpuParams, scheme: Advection, inp: &AdvectInputs) -> (Vec<f32>
     (u_out, v_out)
 }
 
-/// `pressure_rhs.wgsl`: returns (modes [E][ny][nx], divstar [E][nx]).
+/// `pressure_rhs.wgsl`: returns (modes `[E][ny][nx]`, divstar `[E][nx]`).
 pub fn pressure_rhs(p: &GpuParams, poisson: &[f32], u: &[f32], v: &[f32]) -> (Vec<f32>, Vec<f32>) {
     let d = Dim::new(p);
     let ne = p.n_env as usize;
@@ -77,7 +80,7 @@ pub fn pressure_solve(p: &GpuParams, poisson: &[f32], modes: &mut [f32]) {
 }
 
 /// `project.wgsl` (`pressure_back`, then `project`): corrects u, v in place and returns
-/// p [E][ny][nx].
+/// p `[E][ny][nx]`.
 pub fn project(
     p: &GpuParams,
     poisson: &[f32],
@@ -131,7 +134,7 @@ pub fn diagnostics(
         .collect()
 }
 
-/// `paint_bodies` (`members.wgsl`): the body field [E][ny][nx] from the members.
+/// `paint_bodies` (`members.wgsl`): the body field `[E][ny][nx]` from the members.
 pub fn paint_bodies(p: &GpuParams, members: &[GpuMember], swarm_box: &[[f32; 4]]) -> Vec<[f32; 4]> {
     let d = Dim::new(p);
     let (n, nc) = (p.n_members as usize, d.n_c());

@@ -1,6 +1,6 @@
 //! Optional per-stage timing of the CPU control step, for `bench`: a [`StageTimes`]
 //! accumulator (nanoseconds per [`CpuStage`]) that [`super::BatchState::step_timed`] fills, one
-//! per environment, and the [`StageClock`] that `step_env` laps after each stage call. Untimed
+//! per environment, and the `StageClock` that `step_env` laps after each stage call. Untimed
 //! steps carry no clock (`None`): a lap is then one branch, and no clock is ever read. Timing
 //! reads only the clock, never the state, so timed and untimed steps are bit-identical.
 
@@ -30,7 +30,9 @@ pub enum CpuStage {
 }
 
 impl CpuStage {
+    /// Number of stages.
     pub const COUNT: usize = 8;
+    /// Every stage, in the order `step_env` runs them.
     pub const ALL: [CpuStage; Self::COUNT] = [
         CpuStage::Paint,
         CpuStage::Advect,
@@ -56,6 +58,7 @@ impl CpuStage {
         }
     }
 
+    /// Position of the stage in [`CpuStage::ALL`].
     pub fn index(self) -> usize {
         self as usize
     }
@@ -65,6 +68,7 @@ impl CpuStage {
 /// [`StageTimes::add_assign`], over environments: CPU time, not wall time).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct StageTimes {
+    /// Nanoseconds per stage, indexed by [`CpuStage::index`].
     pub ns: [u64; CpuStage::COUNT],
 }
 

@@ -11,12 +11,12 @@
 //!    or pressure_scan   the same systems as two parallel scans (`solver.pressure_sweep`)
 //!   pressure_back       p = Q p_k                            (per column)
 //!   project             u = u* - dt/rho grad p
-//! Buffers ([E] outermost): u[2] [E][ny][nx+1] and v[2] [E][ny+1][nx] (ping-pong), u_hat/v_hat
-//! (MacCormack predictor and clamp extrema, vec4), w_u/w_v (diffused), p and modes [E][ny][nx], body [E][ny][nx] vec4 (chi, u_body, v_body, 0),
-//! inlet [E][S], poisson tables, divstar [E][nx], colstats [E][nx+1] vec4, health [E][2] vec4.
-//! By job: [`buffers`] (the buffers and bind groups), [`io`] (reads and writes), [`step`]
-//! (recording and submitting a control step), [`profile`] (per-kernel times and bytes),
-//! [`sizes`] (sizes, the largest batch, the batch constants), [`flow`] (the trait).
+//! Buffers (`[E]` outermost): u`[2]` `[E][ny][nx+1]` and v`[2]` `[E][ny+1][nx]` (ping-pong), u_hat/v_hat
+//! (MacCormack predictor and clamp extrema, vec4), w_u/w_v (diffused), p and modes `[E][ny][nx]`, body `[E][ny][nx]` vec4 (chi, u_body, v_body, 0),
+//! inlet `[E][S]`, poisson tables, divstar `[E][nx]`, colstats `[E][nx+1]` vec4, health `[E][2]` vec4.
+//! By job: `buffers` (the buffers and bind groups), `io` (reads and writes), `step`
+//! (recording and submitting a control step), `profile` (per-kernel times and bytes),
+//! `sizes` (sizes, the largest batch, the batch constants), `flow` (the trait).
 
 use thiserror::Error;
 use wgpu::util::DeviceExt;
@@ -31,35 +31,53 @@ use crate::gpu::kernels::{
 use crate::gpu::params::{GpuMember, GpuMemberDiag, GpuParams, SubstepUniform};
 use crate::gpu::{GpuContext, GpuError};
 
+/// Why a batch could not be created, stepped, read or written.
 #[derive(Debug, Error)]
 pub enum SimError {
+    /// A GPU error.
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// The batch's largest buffer exceeds the adapter's storage-binding limit.
     #[error(
         "a batch of {n_env} environments at {nx} x {ny} needs a {need} MiB buffer, above this \
          adapter's {limit} MiB storage-binding limit: use at most {max_env} environments \
          (`fluxswarm-gpu info` lists the limits)"
     )]
     TooLarge {
+        /// Environments asked for.
         n_env: usize,
+        /// Cells along x.
         nx: usize,
+        /// Cells across the height.
         ny: usize,
+        /// Size of the largest buffer (MiB).
         need: u64,
+        /// The adapter's `max_storage_buffer_binding_size` (MiB).
         limit: u64,
+        /// Most environments that fit.
         max_env: usize,
     },
+    /// An environment index outside the batch.
     #[error("environment index {0} is outside the batch")]
     NoSuchEnv(usize),
+    /// A batch of zero environments was asked for.
     #[error("the batch needs at least one environment")]
     Empty,
+    /// A checkpoint error.
     #[error(transparent)]
     Checkpoint(#[from] crate::checkpoint::CheckpointError),
+    /// The start-up self-check of the WGSL path failed (loop cap or disagreement with the CPU
+    /// step); the message says how.
     #[error("GPU self-check failed: {0}")]
     SelfCheck(String),
+    /// An array handed to the batch has the wrong length.
     #[error("{what}: {got} values given where the batch holds {want}")]
     WrongLength {
+        /// Which array.
         what: &'static str,
+        /// Its length.
         got: usize,
+        /// The length the batch needs.
         want: usize,
     },
 }
@@ -70,10 +88,15 @@ pub type KernelTimes = Vec<(&'static str, u32, f64)>;
 /// One stage of the substep, for tests and timing by elimination.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stage {
+    /// Diffusion and advection (with the MacCormack correction if chosen): u*.
     Advect,
+    /// div u* in y-cosine modes (`pressure_rhs`).
     PressureRhs,
+    /// The per-mode tridiagonal solve (`pressure_solve` or `pressure_scan`).
     PressureSolve,
+    /// Pressure back-transform and velocity correction (`pressure_back`, `project`).
     Project,
+    /// The health of every environment (`diag_columns`, `diag_reduce`).
     Diagnostics,
     /// Members painted into the body field.
     PaintBodies,
@@ -180,6 +203,7 @@ impl GpuBatch {
         // With members: `move_members`; the paint runs inside `diffuse`.
         Advect::dispatches(self.core.scheme) + 4 + if self.core.n_members > 0 { 1 } else { 0 }
     }
+    /// Dispatches per control step: every substep's and the two of the diagnostics.
     pub fn dispatches_per_control_step(&self) -> u32 {
         self.dispatches_per_substep() * self.core.substeps as u32 + 2
     }

@@ -247,10 +247,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         "readback_s"
     );
     let mut csv = std::fs::File::create(out.join("bench.csv")).context("creating bench.csv")?;
-    writeln!(
-        csv,
-        "envs,env_steps_per_s,cell_updates_per_s,dispatches_per_substep,pressure_iters_per_substep,fluid_s,pressure_s,swarm_s,readback_s,adapter"
-    )?;
+    writeln!(csv, "{}", fluxswarm_gpu::output::tables::BENCH_COLUMNS)?;
     let mut rows = Vec::new();
     let mut adapter = String::new();
     for &envs in &args.envs {

@@ -160,7 +160,8 @@ impl<'a> Writer<'a> {
         let mut summary = std::io::BufWriter::new(file);
         writeln!(
             summary,
-            "step,t_s,inlet_u_m_s,max_div_per_s,flux_min_m2_s,flux_max_m2_s,pressure_iters,residual"
+            "{}",
+            fluxswarm_gpu::output::tables::SUMMARY_COLUMNS
         )?;
         // Fixed colour range for comparable frames: the waveform's extremes with headroom.
         let v_range = frame::velocity_range(resolved.waveform.points());

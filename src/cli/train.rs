@@ -25,6 +25,7 @@ use fluxswarm_gpu::env::{OBS_DIM, Outcome, SwarmEnv};
 use fluxswarm_gpu::learn::mappo::{Iteration, Learner, TrainConfig};
 use fluxswarm_gpu::output::episodes::EpisodesCsv;
 use fluxswarm_gpu::output::run_dir;
+use fluxswarm_gpu::output::tables;
 use fluxswarm_gpu::output::tensorboard::EventWriter;
 
 use super::common::ConfigArgs;
@@ -61,8 +62,6 @@ pub struct TrainArgs {
     #[arg(long, default_value_t = 25, value_name = "K")]
     pub checkpoint_every: u64,
 }
-
-const UPDATES_HEADER: &str = "update,global_step,loss_progress,loss_energy,loss_smoothness,value_loss,entropy,mean_log_std,cos_pe,cos_ps,cos_es,conflict_pe,conflict_ps,conflict_es,sim_s,learn_s";
 
 /// The trained policy alone (actor, normaliser, configuration), rewritten with every
 /// checkpoint; `eval --checkpoint` and `rollout --policy` take it like a checkpoint.
@@ -337,7 +336,7 @@ fn create_logs(out: &Path) -> anyhow::Result<Logs> {
     let episodes = EpisodesCsv::create(out, true).context("creating episodes.csv")?;
     let f = std::fs::File::create(out.join("updates.csv")).context("creating updates.csv")?;
     let mut updates = std::io::BufWriter::new(f);
-    writeln!(updates, "{UPDATES_HEADER}")?;
+    writeln!(updates, "{}", tables::UPDATES_COLUMNS)?;
     updates.flush()?;
     let events = EventWriter::create(out).context("creating the TensorBoard event file")?;
     Ok(Logs {

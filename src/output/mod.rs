@@ -5,6 +5,7 @@ pub mod frame;
 pub mod gif;
 pub mod npy;
 pub mod run_dir;
+pub mod tables;
 pub mod tensorboard;
 pub mod text;
 pub mod traces;

@@ -7,6 +7,8 @@
 # (the phase-aware positive control) and `wall-angle:40` (the best constant controller at
 # `frontier-095` on the paper grid), plus `upstream` at the raised thrust. REFINED_EPISODES
 # episodes each (default 10; seed 2, as the frontier check), through experiments/frontier_check.sh.
+# Added 2026-12-02 ~18:55 UTC, after the first point (both controllers succeed at scale 0.8):
+# scale 0.875 at 850 nN, the midpoint towards 0.95, run before the raised-thrust point.
 # Usage: bash experiments/frontier_refined.sh [OUT]   (default runs/experiments/frontier_refined)
 set -euo pipefail
 here="$(dirname "$0")"
@@ -15,5 +17,7 @@ export CHECK_EPISODES=${REFINED_EPISODES:-10}
 FINE=(--set domain.nx=2000 --set domain.ny=40 --set time.substeps=40)
 CHECK_POLICIES="scripted wall-angle:40" bash "$here/frontier_check.sh" configs/frontier-095.toml \
     "$out/s0.80_f850" "${FINE[@]}" --set inlet.scale=0.8
+CHECK_POLICIES="scripted wall-angle:40" bash "$here/frontier_check.sh" configs/frontier-095.toml \
+    "$out/s0.875_f850" "${FINE[@]}" --set inlet.scale=0.875
 CHECK_POLICIES="scripted upstream wall-angle:40" bash "$here/frontier_check.sh" \
     configs/frontier-095.toml "$out/s0.95_f1275" "${FINE[@]}" --set swarm.max_thrust_n=1.275e-6

@@ -117,6 +117,18 @@ impl SwarmEnv {
         self.batch.as_mut()
     }
 
+    /// Control steps taken so far in the current episode of environment `e` (0 before the
+    /// first step or after a reset).
+    pub fn episode_step(&self, e: usize) -> u32 {
+        self.episodes.get(e).map_or(0, |ep| ep.steps)
+    }
+
+    /// Restarts the generator of start phases and jitter from `seed` (the next reset draws
+    /// from it), as a new environment made with that seed would.
+    pub fn reseed(&mut self, seed: u64) {
+        self.rng = Rng::new(seed);
+    }
+
     /// Resets every environment; returns the observations `[E][N][8]`.
     pub fn reset(&mut self) -> Result<Vec<f32>, SimError> {
         self.episodes.clear();

@@ -138,8 +138,7 @@ impl Recorder for RolloutFiles {
     }
 }
 
-/// A frame of environment 0 of `env` at control step `step` of its episode: the u_x field, the
-/// members and their thrust.
+/// A frame of environment 0 of `env` at control step `step` of its episode, written to `path`.
 fn write_frame(
     env: &SwarmEnv,
     path: &Path,
@@ -147,10 +146,27 @@ fn write_frame(
     members: &[GpuMember],
     forces: &[GpuMemberDiag],
 ) -> Result<(), RolloutError> {
+    render_frame(env, 0, step, members, forces)?
+        .save(path)
+        .map_err(|source| RolloutError::Frame {
+            path: path.to_path_buf(),
+            source,
+        })
+}
+
+/// The frame of environment `e` of `env` at control step `step` of its episode: the u_x
+/// field, the members (`members`, `forces`: `[N]`) and their thrust, as an RGB image.
+pub fn render_frame(
+    env: &SwarmEnv,
+    e: usize,
+    step: u32,
+    members: &[GpuMember],
+    forces: &[GpuMemberDiag],
+) -> Result<image::RgbImage, RolloutError> {
     let resolved = env.resolved();
     let c = &resolved.config;
     let d = &c.domain;
-    let fields = env.batch().fields(0)?;
+    let fields = env.batch().fields(e)?;
     let marks: Vec<MemberMark> = members
         .iter()
         .zip(forces)
@@ -158,27 +174,20 @@ fn write_frame(
         .collect();
     let (v_min, v_max) = frame::velocity_range(resolved.waveform.points());
     let time_s = step as f64 * c.time.control_dt_s;
-    frame::write(
-        path,
-        &frame::FrameSpec {
-            ux: &fields.ux_cells(),
-            nx: fields.nx,
-            ny: fields.ny,
-            length_m: d.length_m,
-            height_m: d.height_m,
-            x_min_m: d.success_x_m,
-            x_max_m: d.failure_x_m,
-            v_min,
-            v_max,
-            time_s,
-            inlet_u_m_s: resolved.waveform.at(time_s),
-            env: 0,
-            members: &marks,
-            radius_m: c.swarm.radius_m,
-        },
-    )
-    .map_err(|source| RolloutError::Frame {
-        path: path.to_path_buf(),
-        source,
-    })
+    Ok(frame::render(&frame::FrameSpec {
+        ux: &fields.ux_cells(),
+        nx: fields.nx,
+        ny: fields.ny,
+        length_m: d.length_m,
+        height_m: d.height_m,
+        x_min_m: d.success_x_m,
+        x_max_m: d.failure_x_m,
+        v_min,
+        v_max,
+        time_s,
+        inlet_u_m_s: resolved.waveform.at(time_s),
+        env: e,
+        members: &marks,
+        radius_m: c.swarm.radius_m,
+    }))
 }

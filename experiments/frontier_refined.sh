@@ -9,6 +9,8 @@
 # episodes each (default 10; seed 2, as the frontier check), through experiments/frontier_check.sh.
 # Added 2026-12-02 ~18:55 UTC, after the first point (both controllers succeed at scale 0.8):
 # scale 0.875 at 850 nN, the midpoint towards 0.95, run before the raised-thrust point.
+# Added 2026-12-02 ~20:08 UTC, after all three (the threshold lies between 0.8 and 0.875):
+# scale 0.85 at 850 nN.
 # Usage: bash experiments/frontier_refined.sh [OUT]   (default runs/experiments/frontier_refined)
 set -euo pipefail
 here="$(dirname "$0")"
@@ -21,3 +23,5 @@ CHECK_POLICIES="scripted wall-angle:40" bash "$here/frontier_check.sh" configs/f
     "$out/s0.875_f850" "${FINE[@]}" --set inlet.scale=0.875
 CHECK_POLICIES="scripted upstream wall-angle:40" bash "$here/frontier_check.sh" \
     configs/frontier-095.toml "$out/s0.95_f1275" "${FINE[@]}" --set swarm.max_thrust_n=1.275e-6
+CHECK_POLICIES="scripted wall-angle:40" bash "$here/frontier_check.sh" configs/frontier-095.toml \
+    "$out/s0.85_f850" "${FINE[@]}" --set inlet.scale=0.85

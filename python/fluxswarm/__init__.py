@@ -74,6 +74,13 @@ def _overrides(overrides, backend: str) -> list:
     return sets + [str(o) for o in overrides]
 
 
+def _native(num_envs, config, overrides, seed, backend, adapter, render_mode) -> NativeEnv:
+    """The native batch both interfaces wrap, after checking what only Python sees."""
+    if render_mode not in (None, "rgb_array"):
+        raise ValueError(f"render_mode {render_mode!r}: give None or 'rgb_array'")
+    return NativeEnv(num_envs, config, _overrides(overrides, backend), seed, adapter)
+
+
 def _obs_space(n: int) -> spaces.Box:
     return spaces.Box(-np.inf, np.inf, shape=(n, 8), dtype=np.float32)
 
@@ -115,9 +122,7 @@ class VectorSwarmEnv(VectorEnv):
         adapter: str = "auto",
         render_mode: Optional[str] = None,
     ):
-        if render_mode not in (None, "rgb_array"):
-            raise ValueError(f"render_mode {render_mode!r}: give None or 'rgb_array'")
-        self.native = NativeEnv(num_envs, config, _overrides(overrides, backend), seed, adapter)
+        self.native = _native(num_envs, config, overrides, seed, backend, adapter, render_mode)
         self.num_envs = self.native.num_envs
         self.num_agents = self.native.num_agents
         self.render_mode = render_mode
@@ -212,7 +217,7 @@ class SwarmParallelEnv(_parallel_base()):
         adapter: str = "auto",
         render_mode: Optional[str] = None,
     ):
-        self.native = NativeEnv(1, config, _overrides(overrides, backend), seed, adapter)
+        self.native = _native(1, config, overrides, seed, backend, adapter, render_mode)
         n = self.native.num_agents
         self.possible_agents = [f"member_{i}" for i in range(n)]
         self.agents: list[str] = []

@@ -91,6 +91,8 @@ def test_bad_arguments_raise_clear_python_errors():
         fluxswarm.VectorSwarmEnv(num_envs=0)
     with pytest.raises(ValueError, match="adapter"):
         fluxswarm.VectorSwarmEnv(adapter="tpu")
+    with pytest.raises(ValueError, match="render_mode"):
+        fluxswarm.parallel_env(overrides=SMALL, render_mode="human")
     with pytest.raises(ValueError, match="does not exist|cannot read|reading"):
         fluxswarm.VectorSwarmEnv(config="/nonexistent/config.toml")
 

@@ -8,7 +8,9 @@
 # assets/results). The rollouts (episodes.csv, starts.csv and config.toml only, a few KB each)
 # are written under assets/results/controllability_map/ and committed, so a clean checkout
 # resumes the map: finished rollouts are skipped. Points run thrust by thrust, from the
-# highest flow scale down, so the frontier band comes first.
+# highest flow scale down, so the frontier band comes first. MAP_SET adds rollout flags to
+# every rollout and probe (e.g. the refined grid: MAP_SET="--set domain.nx=2000 --set
+# domain.ny=40 --set time.substeps=40").
 # Usage: bash experiments/controllability_map.sh [OUT]   (default assets/results/controllability_map)
 source "$(dirname "$0")/common.sh"
 out=${1:-assets/results/controllability_map}
@@ -19,6 +21,7 @@ K=${MAP_EPISODES:-20}
 ENVS=${MAP_ENVS:-4}
 SEED=${MAP_SEED:-1}
 results=${MAP_RESULTS:-assets/results}
+read -r -a extra <<<"${MAP_SET:-}"
 mkdir -p "$out/wall_drag"
 
 for s in "${scales[@]}"; do
@@ -29,7 +32,7 @@ for s in "${scales[@]}"; do
         fluxswarm rollout --policy zero --envs 1 --episodes 1 --seed "$SEED" --out "$dir" \
             --set solver.backend=native --set "inlet.scale=$s" --set swarm.count=1 \
             --set swarm.layout=explicit --set "swarm.positions_m=[[0.05, 0.00025]]" \
-            --set "swarm.pinned=[0]" --set env.max_steps=200 >/dev/null
+            --set "swarm.pinned=[0]" --set env.max_steps=200 "${extra[@]}" >/dev/null
     fi
 done
 for f in "${thrusts[@]}"; do
@@ -37,7 +40,7 @@ for f in "${thrusts[@]}"; do
         for p in "${policies[@]}"; do
             episodes_once "$out/s${s}_f$f/${p//:/-}" "$K" --policy "$p" --envs "$ENVS" \
                 --seed "$SEED" "${SCENARIO_SET[@]}" --set "inlet.scale=$s" \
-                --set "swarm.max_thrust_n=$f" || true
+                --set "swarm.max_thrust_n=$f" "${extra[@]}" || true
         done
     done
 done

@@ -388,6 +388,12 @@ pub fn is_constant(policy: &str) -> bool {
     matches!(policy, "zero" | "random") || wall_angle_deg(policy).is_some()
 }
 
+/// The phase-aware positive control: `scripted` (the tuned parameters) or
+/// `scripted:CALM:STORM:START:END` (parameters tuned for another grid, e.g. the refined one).
+pub fn is_scripted(policy: &str) -> bool {
+    policy == "scripted" || policy.starts_with("scripted:")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -442,6 +448,10 @@ mod tests {
         assert_eq!(wall_angle_deg("wall"), Some(45.0));
         assert_eq!(wall_angle_deg("wall-angle:70"), Some(70.0));
         assert!(is_constant("zero") && !is_constant("scripted"));
+        assert!(is_scripted("scripted") && is_scripted("scripted:30:60:0.9:0.15"));
+        assert!(
+            !is_scripted("wall") && !is_scripted("scriptedx") && !is_constant("scripted:1:2:3:4")
+        );
     }
 
     #[test]

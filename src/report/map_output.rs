@@ -1,7 +1,8 @@
 //! What `fluxswarm-gpu map` writes from the cells of [`super::map`]:
 //! - `controllability_map.csv`: one row per controller per scenario point (the columns of [`MAP_HEADER`]);
 //! - `controllability_points.csv`: one row per point: the best constant controller (zero, random and the
-//!   wall-angle family, upstream and wall included), the best wall angle, `scripted`, and the
+//!   wall-angle family, upstream and wall included), the best wall angle, `scripted` (or one
+//!   `scripted:CALM:STORM:START:END` cell, tuned for another grid), and the
 //!   gap = scripted rate - best constant rate;
 //! - `controllability_map.png` (success rate of every controller over flow scale x thrust),
 //!   `controllability_map_gap.png` (the gap and the best constant controller) and
@@ -14,7 +15,7 @@ use std::path::Path;
 use super::error::{Result, Within};
 
 use super::heatmap::{self, HeatAxes, HeatPanel, Scale, ScatterPanel};
-use super::map::{Cell, WallDrag, is_constant, probe_for, wall_angle_deg};
+use super::map::{Cell, WallDrag, is_constant, is_scripted, probe_for, wall_angle_deg};
 
 /// Header row of `controllability_map.csv`.
 pub const MAP_HEADER: &str = "inlet_scale,peak_inlet_m_s,max_thrust_nN,policy,episodes,successes,success_rate,success_lo,success_hi,systole_episodes,systole_successes,systole_lo,systole_hi,diastole_episodes,diastole_successes,diastole_lo,diastole_hi,failures,timeouts,mean_success_time_s,median_cycles,upstream_mm_per_cycle,peak_wall_drag_nN,thrust_over_peak_drag,thrust_beats_drag_fraction";
@@ -76,7 +77,7 @@ pub fn points(cells: &[Cell]) -> Vec<Point<'_>> {
                 max_thrust_n: f,
                 best_constant: pick(&|c| is_constant(&c.policy))?,
                 best_angle: pick(&|c| wall_angle_deg(&c.policy).is_some()),
-                scripted: pick(&|c| c.policy == "scripted"),
+                scripted: pick(&|c| is_scripted(&c.policy)),
             })
         })
         .collect()
@@ -158,7 +159,7 @@ fn policy_order(policy: &str) -> (u8, f64, String) {
         ("zero", _) => (0, 0.0, String::new()),
         ("random", _) => (1, 0.0, String::new()),
         (_, Some(d)) => (2, d, String::new()),
-        ("scripted", _) => (3, 0.0, String::new()),
+        (p, _) if is_scripted(p) => (3, 0.0, p.to_string()),
         (p, _) => (4, 0.0, p.to_string()),
     }
 }
@@ -351,6 +352,18 @@ mod tests {
             median_cycles: 1.0,
             upstream_mm_per_cycle: 0.0,
         }
+    }
+
+    #[test]
+    fn a_scripted_cell_with_explicit_parameters_is_the_points_positive_control() {
+        let cells = vec![
+            cell("wall-angle:40", 0.875, 4),
+            cell("scripted:30:60:0.9:0.15", 0.875, 11),
+        ];
+        let pts = points(&cells);
+        assert_eq!(pts[0].scripted.unwrap().policy, "scripted:30:60:0.9:0.15");
+        assert_eq!(pts[0].best_constant.policy, "wall-angle:40");
+        assert!((pts[0].gap() - 0.35).abs() < 1e-12);
     }
 
     #[test]

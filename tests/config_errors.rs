@@ -312,4 +312,11 @@ fn objective_weights_need_the_averaged_gradient_and_sensible_values() {
     assert_eq!(ok.config.train.objective_weights, [1.0, 0.0, 0.0]);
     let m = err(&["env.energy_reward=\"downstream\""]);
     assert_contains(&m, &["energy_reward", "upstream"]);
+    let m = err(&["train.action_distribution=beta"]);
+    assert_contains(&m, &["action_distribution", "gaussian", "tanh"]);
+    let ok = Config::load(None, &["train.action_distribution=tanh".into()]).unwrap();
+    assert_eq!(
+        ok.config.train.action_distribution,
+        fluxswarm_gpu::config::ActionDistribution::Tanh
+    );
 }

@@ -1,7 +1,8 @@
 //! The learner learns: on the CPU point-mass environment (a known optimum: push straight to
 //! the target, smoothly), a bounded training run improves every objective's episode metric
-//! clearly over the random policy, with and without PCGrad.
+//! clearly over the random policy, with and without PCGrad, and with the tanh-squashed policy.
 
+use fluxswarm_gpu::config::ActionDistribution;
 use fluxswarm_gpu::learn::env::MultiAgentEnv;
 use fluxswarm_gpu::learn::mappo::{Learner, TrainConfig};
 use fluxswarm_gpu::rng::Rng;
@@ -34,7 +35,7 @@ fn evaluate(
     })
 }
 
-fn train_and_compare(pcgrad: bool) {
+fn train_and_compare(pcgrad: bool, action_distribution: ActionDistribution) {
     let mut rng = Rng::new(3);
     let random = evaluate(
         |o| {
@@ -48,6 +49,7 @@ fn train_and_compare(pcgrad: bool) {
     // SPEC defaults except 4 minibatches per epoch (bounds the test's time).
     let cfg = TrainConfig {
         pcgrad,
+        action_distribution,
         minibatches: 4,
         ..Default::default()
     };
@@ -56,6 +58,10 @@ fn train_and_compare(pcgrad: bool) {
     let mut obs = env.reset().unwrap();
     for it in 0..50 {
         let stats = learner.iterate(&mut env, &mut obs).unwrap().stats;
+        eprintln!(
+            "DEBUG {action_distribution:?} {it} log_std {:.3} entropy {:.3}",
+            stats.mean_log_std, stats.entropy
+        );
         assert!(
             stats.value_loss.is_finite() && stats.entropy.is_finite(),
             "update {it}"
@@ -64,9 +70,16 @@ fn train_and_compare(pcgrad: bool) {
             assert!(stats.conflict.iter().all(|c| (0.0..=1.0).contains(c)));
         }
     }
-    let trained = evaluate(|o| learner.act(o, true).unwrap().0, 48, 1);
+    let trained = evaluate(
+        |o| {
+            let raw = learner.act(o, true).unwrap().0;
+            learner.applied(&raw)
+        },
+        48,
+        1,
+    );
     println!(
-        "pcgrad {pcgrad}: random {random:.3?} -> trained {trained:.3?} (progress, energy, smoothness)"
+        "pcgrad {pcgrad}, {action_distribution:?}: random {random:.3?} -> trained {trained:.3?} (progress, energy, smoothness)"
     );
     assert!(
         trained[0] > random[0] + 3.0,
@@ -84,10 +97,15 @@ fn train_and_compare(pcgrad: bool) {
 
 #[test]
 fn learns_with_pcgrad() {
-    train_and_compare(true);
+    train_and_compare(true, ActionDistribution::Gaussian);
 }
 
 #[test]
 fn learns_without_pcgrad() {
-    train_and_compare(false);
+    train_and_compare(false, ActionDistribution::Gaussian);
+}
+
+#[test]
+fn learns_with_the_tanh_policy() {
+    train_and_compare(true, ActionDistribution::Tanh);
 }

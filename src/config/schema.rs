@@ -62,6 +62,23 @@ pub struct Train {
     /// weights must be equal.
     #[serde(default = "equal_weights")]
     pub objective_weights: [f64; 3],
+    /// The policy's action distribution: `gaussian` (the paper's: the raw Gaussian sample is
+    /// the action, and the environment clips its norm at 1) or `tanh` (each component of the
+    /// sample squashed by tanh, with the change-of-variables log-probability and an entropy
+    /// estimate that falls as the mean saturates; `learn::squash`).
+    #[serde(default)]
+    pub action_distribution: ActionDistribution,
+}
+
+/// The policy's action distribution (`train.action_distribution`).
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum ActionDistribution {
+    /// The raw Gaussian sample is the action (SPEC section 5).
+    #[default]
+    Gaussian,
+    /// tanh of each component of the Gaussian sample.
+    Tanh,
 }
 
 fn equal_weights() -> [f64; 3] {

@@ -81,7 +81,10 @@ impl Policy {
             Policy::Trained {
                 learner,
                 deterministic,
-            } => learner.act(&learner.normalize(obs), *deterministic)?.0,
+            } => {
+                let raw = learner.act(&learner.normalize(obs), *deterministic)?.0;
+                learner.applied(&raw)
+            }
             Policy::Custom(act) => act(obs, env),
         })
     }

@@ -33,11 +33,13 @@ use super::nets::{Actor, Critic};
 use super::normalizer::ObsNormalizer;
 use super::pcgrad::{combine, dot, plan};
 use super::ppo::clipped_surrogate_grad;
+use super::squash;
 #[cfg(test)]
 use super::surgery::flatten;
 use super::surgery::{named_vars, set_values, values};
 use super::transition::EpisodeSummary;
 use crate::checkpoint::Archive;
+use crate::config::ActionDistribution;
 use crate::rng::Rng;
 
 /// Hyperparameters: the `[train]` table of the configuration (SPEC section 5).
@@ -329,7 +331,7 @@ mod tests {
             })
             .collect();
         let got = learner
-            .actor_gradients(&pass, &actions, &d_lp, b, n)
+            .actor_gradients(&pass, &actions, &d_lp, &[], b, n)
             .unwrap();
         // The reference: candle's autograd through each loss, as the update once did it.
         let mut want = Vec::new();

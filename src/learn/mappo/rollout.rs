@@ -6,7 +6,9 @@ use super::*;
 
 impl Learner {
     /// Sampled (or mean) raw actions `[E][N]` and joint log-probabilities `[E]` for network inputs
-    /// `[E][N][D]` (observations passed through [`Self::normalize`]).
+    /// `[E][N][D]` (observations passed through [`Self::normalize`]). The environment receives
+    /// [`Self::applied`] of the raw actions; the log-probabilities are those of the applied
+    /// actions (with the tanh policy's change-of-variables term).
     pub fn act(
         &mut self,
         obs: &[f32],
@@ -38,8 +40,16 @@ impl Learner {
             }
             actions.push(a);
         }
-        let lp = mlp::actor::joint_log_prob(&actions.concat(), m, log_std, self.agents);
+        let raw = actions.concat();
+        let mut lp = mlp::actor::joint_log_prob(&raw, m, log_std, self.agents);
+        squash::correct_log_prob(self.cfg.action_distribution, &raw, self.agents, &mut lp);
         Ok((actions, lp))
+    }
+
+    /// The actions the environment receives for raw actions `[E][N]` from [`Self::act`]: the
+    /// same for the Gaussian policy, tanh of each component for `action_distribution = "tanh"`.
+    pub fn applied(&self, raw: &[[f32; 2]]) -> Vec<[f32; 2]> {
+        squash::applied(self.cfg.action_distribution, raw)
     }
 
     /// Values `[B][N][3]` of joint states given as network inputs `[B][N][D]`.
@@ -103,7 +113,7 @@ impl Learner {
             logp_buf.extend(logp);
             values.extend_from_slice(&v);
             let t0 = std::time::Instant::now();
-            let tr = env.step(&actions).map_err(LearnError::Env)?;
+            let tr = env.step(&self.applied(&actions)).map_err(LearnError::Env)?;
             sim_s += t0.elapsed().as_secs_f64();
             rewards.extend_from_slice(&tr.rewards);
             for (e, ended) in ended_prev.iter_mut().enumerate() {

@@ -13,21 +13,24 @@ impl Learner {
         pass: &ActorPass,
         actions: &[f32],
         d_lp: &[Vec<f32>],
+        noise: &[f32],
         b: usize,
         n: usize,
     ) -> Result<ActorGradients, LearnError> {
-        Ok(self.actor_grads(&pass.to_acts()?, actions, d_lp, b, n))
+        Ok(self.actor_grads(&pass.to_acts()?, actions, d_lp, noise, b, n))
     }
 
     /// The three objectives' actor gradients and the entropy bonus's, flattened in
     /// `actor_vars` order, from one forward pass `acts` and one batched backward pass, given
     /// each objective's d loss / d (joint log-probability) `d_lp` [3][B]. Also the mean entropy
-    /// and mean log σ. Rows are agents, `b` samples of `n` agents each; `actions` [B N][2].
+    /// and mean log σ. Rows are agents, `b` samples of `n` agents each; `actions` [B N][2];
+    /// `noise` [B N][2] the tanh policy's entropy draws ([`squash::entropy_noise`]).
     pub(super) fn actor_grads(
         &self,
         acts: &ActorActs,
         actions: &[f32],
         d_lp: &[Vec<f32>],
+        noise: &[f32],
         b: usize,
         n: usize,
     ) -> ActorGradients {
@@ -35,17 +38,27 @@ impl Learner {
         let (mean, log_std) = (&acts.mean, &acts.log_std);
         // Two sets of row gradients. Set 0, per row and action dimension: d log N / d mean =
         // z / σ and d log N / d log σ = z^2 - 1, weighted by each objective's d loss / d lp of
-        // the row's sample. Set 1, the entropy bonus -c mean_rows sum_dims (log σ + const):
-        // -c / rows on every d / d log σ, weight 1 for the bonus and 0 for the objectives.
+        // the row's sample (the tanh policy's term depends on the sample only). Set 1, the
+        // entropy bonus -c mean_rows sum_dims (log σ + const + tanh term): -c / rows times
+        // (1 + the term's d / d log σ) on d / d log σ and times its d / d mean on d / d mean
+        // (`squash`; zero for the Gaussian), weight 1 for the bonus and 0 for the objectives.
         let k = d_lp.len() + 1;
         let mut d_mean = vec![0.0f32; 2 * rows * 2];
         let mut d_log_std = vec![0.0f32; 2 * rows * 2];
-        for i in 0..rows * 2 {
+        let bonus = -(self.cfg.entropy_coef / rows as f64) as f32;
+        let mut squash_entropy = 0.0f64;
+        let squashed = self.cfg.action_distribution != ActionDistribution::Gaussian;
+        let terms = squash::entropy_terms(self.cfg.action_distribution, mean, log_std, noise);
+        for (i, (term, d_term_mean, d_term_log_std)) in terms.enumerate().take(rows * 2) {
             let inv_sigma = (-log_std[i]).exp();
             let z = (actions[i] - mean[i]) * inv_sigma;
             d_mean[i] = z * inv_sigma;
             d_log_std[i] = z * z - 1.0;
-            d_log_std[rows * 2 + i] = -(self.cfg.entropy_coef / rows as f64) as f32;
+            if squashed {
+                d_mean[rows * 2 + i] = bonus * d_term_mean;
+            }
+            d_log_std[rows * 2 + i] = bonus * (1.0 + d_term_log_std);
+            squash_entropy += term as f64;
         }
         let mut weights = vec![0.0f32; k * 2 * b];
         for (o, w) in d_lp.iter().enumerate() {
@@ -67,7 +80,8 @@ impl Learner {
         );
         let entropy_bonus = flat.pop().expect("k >= 1");
         let mean_log_std = log_std.iter().map(|&x| x as f64).sum::<f64>() / log_std.len() as f64;
-        let entropy = 2.0 * (0.5 + 0.5 * (2.0 * std::f64::consts::PI).ln() + mean_log_std);
+        let entropy = 2.0 * (0.5 + 0.5 * (2.0 * std::f64::consts::PI).ln() + mean_log_std)
+            + squash_entropy / rows as f64;
         ActorGradients {
             objectives: flat,
             entropy_bonus,
@@ -106,7 +120,9 @@ impl Learner {
                     .flat_map(|&s| actions[s * n..(s + 1) * n].concat())
                     .collect();
                 let acts = mlp::actor::forward(&self.actor_layout, &self.actor_p, &x, b * n);
-                let lp_new = mlp::actor::joint_log_prob(&a_flat, &acts.mean, &acts.log_std, n);
+                let mut lp_new = mlp::actor::joint_log_prob(&a_flat, &acts.mean, &acts.log_std, n);
+                // The tanh term depends on the raw sample only: it cancels in the ratio.
+                squash::correct_log_prob(self.cfg.action_distribution, &a_flat, n, &mut lp_new);
                 let (lp_old, adv_b) = (gather(logp_old, 1), gather(adv, n * 3));
                 let mut d_lp = Vec::with_capacity(3);
                 for k in 0..3 {
@@ -116,7 +132,9 @@ impl Learner {
                     stats.loss[k] += loss;
                     d_lp.push(g);
                 }
-                let grads = self.actor_grads(&acts, &a_flat, &d_lp, b, n);
+                let noise =
+                    squash::entropy_noise(self.cfg.action_distribution, b * n, &mut self.rng);
+                let grads = self.actor_grads(&acts, &a_flat, &d_lp, &noise, b, n);
                 // PCGrad's random projection orders (none for the plain average).
                 let order: Vec<Vec<usize>> = if self.cfg.pcgrad {
                     (0..3)
@@ -200,6 +218,62 @@ fn mix_weights(cfg: &TrainConfig, planned: Vec<f64>) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_tanh_policys_entropy_bonus_equals_autograd_of_its_estimate() {
+        use crate::learn::nets::gaussian_entropy;
+        let (b, n) = (4, 3);
+        let cfg = TrainConfig {
+            action_distribution: ActionDistribution::Tanh,
+            ..TrainConfig::default()
+        };
+        let learner = Learner::new(n, 8, cfg, 5).unwrap();
+        let mut rng = Rng::new(21);
+        let mut noise = |len: usize, s: f64| -> Vec<f32> {
+            (0..len).map(|_| (s * rng.normal()) as f32).collect()
+        };
+        let (obs, actions) = (noise(b * n * 8, 1.0), noise(b * n * 2, 1.5));
+        let noise = noise(b * n * 2, 1.0);
+        let dev = Device::Cpu;
+        let o = Tensor::from_slice(&obs, (b * n, 8), &dev).unwrap();
+        let pass = learner.actor.forward_pass(&o).unwrap();
+        let d_lp = vec![vec![0.0f32; b]; 3];
+        let got = learner
+            .actor_gradients(&pass, &actions, &d_lp, &noise, b, n)
+            .unwrap();
+        // The reference: u = mean + σ ε for the draws ε, H = H(N) + sum_dims log(1 - tanh² u),
+        // averaged over rows, times -entropy_coef, by autograd.
+        let sigma = pass.log_std.exp().unwrap();
+        let eps = Tensor::from_slice(&noise, (b * n, 2), &dev).unwrap();
+        let u = (&pass.mean + (&sigma * &eps).unwrap()).unwrap();
+        let term = u
+            .tanh()
+            .unwrap()
+            .sqr()
+            .unwrap()
+            .affine(-1.0, 1.0)
+            .unwrap()
+            .log()
+            .unwrap();
+        let h = (gaussian_entropy(&pass.log_std).unwrap() + term.sum(1).unwrap())
+            .unwrap()
+            .mean_all()
+            .unwrap();
+        let want = flatten(
+            &h.affine(-0.01, 0.0).unwrap().backward().unwrap(),
+            &learner.actor_vars,
+        )
+        .unwrap();
+        let scale = want.iter().fold(0f32, |m, x| m.max(x.abs()));
+        assert!(scale > 0.0);
+        for (x, y) in got.entropy_bonus.iter().zip(&want) {
+            assert!((x - y).abs() <= 1e-5 * scale, "{x} vs {y}");
+        }
+        assert!((got.entropy - h.to_scalar::<f32>().unwrap() as f64).abs() < 1e-5);
+        // The estimate is below the Gaussian's entropy: the squashing only removes spread.
+        let gauss = 2.0 * (0.5 + 0.5 * (2.0 * std::f64::consts::PI).ln() + got.mean_log_std);
+        assert!(got.entropy < gauss);
+    }
 
     #[test]
     fn objective_weights_mix_the_gradients_only_without_pcgrad() {

@@ -58,10 +58,6 @@ fn train_and_compare(pcgrad: bool, action_distribution: ActionDistribution) {
     let mut obs = env.reset().unwrap();
     for it in 0..50 {
         let stats = learner.iterate(&mut env, &mut obs).unwrap().stats;
-        eprintln!(
-            "DEBUG {action_distribution:?} {it} log_std {:.3} entropy {:.3}",
-            stats.mean_log_std, stats.entropy
-        );
         assert!(
             stats.value_loss.is_finite() && stats.entropy.is_finite(),
             "update {it}"

@@ -49,7 +49,7 @@ impl Learner {
         let mut squash_entropy = 0.0f64;
         let squashed = self.cfg.action_distribution != ActionDistribution::Gaussian;
         let terms = squash::entropy_terms(self.cfg.action_distribution, mean, log_std, noise);
-        for (i, (term, d_term_mean, d_term_log_std)) in terms.enumerate().take(rows * 2) {
+        for (i, (term, d_term_mean, d_term_log_std)) in terms.enumerate() {
             let inv_sigma = (-log_std[i]).exp();
             let z = (actions[i] - mean[i]) * inv_sigma;
             d_mean[i] = z * inv_sigma;

@@ -102,6 +102,7 @@ impl MultiAgentEnv for PointMasses {
             truncated: vec![false; ne],
             diverged: vec![false; ne],
             final_obs: vec![None; ne],
+            final_global_state: vec![None; ne],
             episodes: vec![None; ne],
         };
         for e in 0..ne {

@@ -66,6 +66,20 @@ fn native_backend_resume_matches_an_uninterrupted_run() {
     resume_matches_an_uninterrupted_run(&["--set", "solver.backend=native"]);
 }
 
+/// The same with a critic that reads the inlet phase (its input layer is wider, and the
+/// phase of every environment must come back with the checkpoint).
+#[test]
+fn critic_phase_resume_matches_an_uninterrupted_run() {
+    resume_matches_an_uninterrupted_run(&[
+        "--set",
+        "solver.backend=native",
+        "--set",
+        "train.critic_phase=true",
+        "--set",
+        "inlet.random_phase=true",
+    ]);
+}
+
 fn resume_matches_an_uninterrupted_run(extra: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));

@@ -170,3 +170,57 @@ fn the_same_seed_gives_the_same_trajectory_and_k_of_a_batch_equals_k_alone() {
         assert_eq!(&s.rewards[9..], &t.rewards[..]);
     }
 }
+
+#[test]
+fn the_critics_global_state_is_the_inlet_phase_and_goes_with_the_final_observation() {
+    use fluxswarm_gpu::learn::env::MultiAgentEnv;
+    use fluxswarm_gpu::sim::CpuBatch;
+    let r = config(
+        &MID,
+        &[
+            "env.max_steps=3",
+            "inlet.random_phase=true",
+            "solver.backend=native",
+        ],
+    );
+    let mut env =
+        fluxswarm_gpu::env::SwarmEnv::new(Box::new(CpuBatch::new(&r, 2).unwrap()), &r, 5).unwrap();
+    MultiAgentEnv::reset(&mut env).unwrap();
+    assert_eq!(env.global_state_dim(), 2);
+    let period = r.config.inlet.period_s;
+    let dt = env.batch().control_dt();
+    // (sin, cos) of 2 pi ((start phase + k dt) mod T) / T, by hand.
+    let by_hand = |start: f64, k: u32| {
+        let angle = std::f64::consts::TAU * (start + k as f64 * dt).rem_euclid(period) / period;
+        [angle.sin() as f32, angle.cos() as f32]
+    };
+    let starts: Vec<f64> = (0..2).map(|e| env.batch().phase_s(e)).collect();
+    assert!(starts[0] != starts[1], "random phases differ: {starts:?}");
+    let close = |a: &[f32], b: [f32; 2]| (a[0] - b[0]).abs() < 1e-5 && (a[1] - b[1]).abs() < 1e-5;
+    let g = env.global_state();
+    for e in 0..2 {
+        assert!(close(&g[2 * e..2 * e + 2], by_hand(starts[e], 0)), "{g:?}");
+    }
+    for k in 1..=3 {
+        let s = env.step(&[[0.0; 2]; 6]).unwrap();
+        for e in 0..2 {
+            if k < 3 {
+                assert!(s.final_global_state[e].is_none());
+                let g = env.global_state();
+                assert!(
+                    close(&g[2 * e..2 * e + 2], by_hand(starts[e], k)),
+                    "step {k}"
+                );
+            } else {
+                // The truncated episode's last state, before the reset drew a new phase.
+                let last = s.final_global_state[e].as_ref().unwrap();
+                assert!(close(last, by_hand(starts[e], 3)), "{last:?}");
+                let g = env.global_state();
+                assert!(close(
+                    &g[2 * e..2 * e + 2],
+                    by_hand(env.batch().phase_s(e), 0)
+                ));
+            }
+        }
+    }
+}

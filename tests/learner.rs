@@ -105,3 +105,158 @@ fn learns_without_pcgrad() {
 fn learns_with_the_tanh_policy() {
     train_and_compare(true, ActionDistribution::Tanh);
 }
+
+/// E environments of N agents whose observations are all zero and whose progress reward at
+/// control step t is sin(2 pi (t0 + t) / P), with a random start t0 per episode and truncation
+/// after `MAX` steps: only a critic that reads the phase (the global state) can predict the
+/// return.
+struct PhaseClock {
+    envs: usize,
+    agents: usize,
+    t: Vec<u32>,
+    start: Vec<u32>,
+    rng: Rng,
+}
+
+impl PhaseClock {
+    const PERIOD: u32 = 16;
+    const MAX: u32 = 40;
+
+    fn angle(&self, e: usize, t: u32) -> f64 {
+        std::f64::consts::TAU * ((self.start[e] + t) % Self::PERIOD) as f64 / Self::PERIOD as f64
+    }
+    fn features(&self, e: usize, t: u32) -> Vec<f32> {
+        let a = self.angle(e, t);
+        vec![a.sin() as f32, a.cos() as f32]
+    }
+    fn restart(&mut self, e: usize) {
+        self.t[e] = 0;
+        self.start[e] = (self.rng.next_u64() % Self::PERIOD as u64) as u32;
+    }
+}
+
+impl MultiAgentEnv for PhaseClock {
+    fn n_env(&self) -> usize {
+        self.envs
+    }
+    fn n_agents(&self) -> usize {
+        self.agents
+    }
+    fn obs_dim(&self) -> usize {
+        8
+    }
+    fn reset(&mut self) -> Result<Vec<f32>, fluxswarm_gpu::learn::env::EnvError> {
+        (0..self.envs).for_each(|e| self.restart(e));
+        Ok(vec![0.0; self.envs * self.agents * 8])
+    }
+    fn step(
+        &mut self,
+        _actions: &[[f32; 2]],
+    ) -> Result<fluxswarm_gpu::learn::env::Transition, fluxswarm_gpu::learn::env::EnvError> {
+        let (ne, n) = (self.envs, self.agents);
+        let mut tr = fluxswarm_gpu::learn::env::Transition {
+            obs: vec![0.0; ne * n * 8],
+            rewards: vec![0.0; ne * n * 3],
+            terminated: vec![false; ne],
+            truncated: vec![false; ne],
+            diverged: vec![false; ne],
+            final_obs: vec![None; ne],
+            final_global_state: vec![None; ne],
+            episodes: vec![None; ne],
+        };
+        for e in 0..ne {
+            let r = self.angle(e, self.t[e]).sin() as f32;
+            (0..n).for_each(|i| tr.rewards[(e * n + i) * 3] = r);
+            self.t[e] += 1;
+            if self.t[e] >= Self::MAX {
+                tr.truncated[e] = true;
+                tr.final_obs[e] = Some(vec![0.0; n * 8]);
+                tr.final_global_state[e] = Some(self.features(e, self.t[e]));
+                self.restart(e);
+            }
+        }
+        Ok(tr)
+    }
+    fn save_state(
+        &self,
+        _: &mut fluxswarm_gpu::checkpoint::Archive,
+    ) -> Result<(), fluxswarm_gpu::learn::env::EnvError> {
+        Ok(())
+    }
+    fn load_state(
+        &mut self,
+        _: &fluxswarm_gpu::checkpoint::Archive,
+    ) -> Result<(), fluxswarm_gpu::learn::env::EnvError> {
+        Ok(())
+    }
+    fn global_state_dim(&self) -> usize {
+        2
+    }
+    fn global_state(&self) -> Vec<f32> {
+        (0..self.envs)
+            .flat_map(|e| self.features(e, self.t[e]))
+            .collect()
+    }
+}
+
+/// Mean value loss over the last 5 of 30 updates on [`PhaseClock`], with a critic that reads
+/// `global` global-state inputs (0 or 2).
+fn phase_clock_value_loss(global: usize) -> f64 {
+    let cfg = TrainConfig {
+        gamma: 0.9,
+        minibatches: 4,
+        ..Default::default()
+    };
+    let mut learner = Learner::with_global_state(2, 8, global, cfg, 3).unwrap();
+    let mut env = PhaseClock {
+        envs: 4,
+        agents: 2,
+        t: vec![0; 4],
+        start: vec![0; 4],
+        rng: Rng::new(9),
+    };
+    let mut obs = env.reset().unwrap();
+    let losses: Vec<f64> = (0..30)
+        .map(|_| {
+            learner
+                .iterate(&mut env, &mut obs)
+                .unwrap()
+                .stats
+                .value_loss
+        })
+        .collect();
+    losses[25..].iter().sum::<f64>() / 5.0
+}
+
+#[test]
+fn a_critic_that_reads_the_phase_predicts_a_phase_driven_return() {
+    // The discounted return of sin(2 pi (phi + k) / 16) at gamma 0.9 swings by about +-2.6
+    // with phi: the phase-blind critic can only learn its mean (value loss near
+    // 1.5 x 2.6^2 / 2 / 3 = 1.7 over the three heads), the phase-reading one the swing.
+    let blind = phase_clock_value_loss(0);
+    let reading = phase_clock_value_loss(2);
+    println!("value loss: phase-blind {blind:.3}, phase-reading {reading:.3}");
+    assert!(
+        blind > 0.5,
+        "the blind critic cannot fit the swing: {blind}"
+    );
+    assert!(reading < 0.2 * blind, "{reading} vs {blind}");
+}
+
+#[test]
+fn a_critic_made_for_another_global_state_length_is_refused() {
+    let mut learner = Learner::with_global_state(2, 8, 3, TrainConfig::default(), 3).unwrap();
+    let mut env = PhaseClock {
+        envs: 2,
+        agents: 2,
+        t: vec![0; 2],
+        start: vec![0; 2],
+        rng: Rng::new(9),
+    };
+    let mut obs = env.reset().unwrap();
+    let err = learner.iterate(&mut env, &mut obs).unwrap_err().to_string();
+    assert!(
+        err.contains("reads 3 global-state inputs but the environment offers 2"),
+        "{err}"
+    );
+}

@@ -22,6 +22,7 @@ use clap::Args;
 use fluxswarm_gpu::checkpoint::{self, Archive, CheckpointError};
 use fluxswarm_gpu::config::{Config, Resolved};
 use fluxswarm_gpu::env::{OBS_DIM, Outcome, SwarmEnv};
+use fluxswarm_gpu::learn::env::MultiAgentEnv;
 use fluxswarm_gpu::learn::mappo::{Iteration, Learner, TrainConfig};
 use fluxswarm_gpu::output::episodes::EpisodesCsv;
 use fluxswarm_gpu::output::run_dir;
@@ -111,7 +112,13 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
     let runs_on = super::common::runs_on(&opened);
     let mut env = SwarmEnv::new(opened.batch, &plan.resolved, plan.seed)?;
     let cfg: TrainConfig = plan.resolved.config.train.clone();
-    let mut learner = Learner::new(env.n_agents(), OBS_DIM, cfg, plan.seed)?;
+    // train.critic_phase: the critic also reads the environment's global state (the inlet phase).
+    let global_dim = match cfg.critic_phase {
+        true => MultiAgentEnv::global_state_dim(&env),
+        false => 0,
+    };
+    let mut learner =
+        Learner::with_global_state(env.n_agents(), OBS_DIM, global_dim, cfg, plan.seed)?;
     let mut obs = env.reset()?;
     let ck_dir = plan.out.join("checkpoints");
     let (mut progress, mut logs) = match &resumed {

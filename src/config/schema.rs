@@ -68,6 +68,11 @@ pub struct Train {
     /// estimate that falls as the mean saturates; `learn::squash`).
     #[serde(default)]
     pub action_distribution: ActionDistribution,
+    /// Give the centralised critic the environment's global state beyond the joint
+    /// observations: for the swarm, the inlet phase as (sin 2 pi phi, cos 2 pi phi). The actors
+    /// never see it, so the policy acts on the paper's observations alone.
+    #[serde(default)]
+    pub critic_phase: bool,
 }
 
 /// The policy's action distribution (`train.action_distribution`).

@@ -123,6 +123,16 @@ impl SwarmEnv {
         self.episodes.get(e).map_or(0, |ep| ep.steps)
     }
 
+    /// The inlet phase of environment e now as (sin 2 pi phi, cos 2 pi phi), phi = (t mod T) / T
+    /// with t its waveform time and T the period: the global state a centralised critic may
+    /// see (`train.critic_phase`); continuous across the period's wrap.
+    pub fn phase_features(&self, e: usize) -> [f32; 2] {
+        let period = self.batch.waveform().period_s();
+        let angle =
+            std::f64::consts::TAU * self.batch.waveform_time_s(e).rem_euclid(period) / period;
+        [angle.sin() as f32, angle.cos() as f32]
+    }
+
     /// Restarts the generator of start phases and jitter from `seed` (the next reset draws
     /// from it), as a new environment made with that seed would.
     pub fn reseed(&mut self, seed: u64) {
@@ -243,6 +253,7 @@ impl SwarmEnv {
                 truncated: vec![false; self.n_env],
                 diverged: vec![false; self.n_env],
                 final_obs: vec![None; self.n_env],
+                final_global_state: vec![None; self.n_env],
                 episodes: vec![None; self.n_env],
             },
             members: Vec::new(),
@@ -335,6 +346,7 @@ impl SwarmEnv {
                         final_x_com_mm: x_com * 1e3,
                     });
                     out.transition.final_obs[e] = Some(obs_e);
+                    out.transition.final_global_state[e] = Some(self.phase_features(e).to_vec());
                     let next = ep.index + 1;
                     out.transition.obs.extend(self.reset_env(e, next)?);
                 }
@@ -369,5 +381,14 @@ impl crate::learn::env::MultiAgentEnv for SwarmEnv {
 
     fn load_state(&mut self, archive: &crate::checkpoint::Archive) -> Result<(), EnvError> {
         Ok(SwarmEnv::load_state(self, archive, "env")?)
+    }
+
+    fn global_state_dim(&self) -> usize {
+        2
+    }
+    fn global_state(&self) -> Vec<f32> {
+        (0..self.n_env)
+            .flat_map(|e| self.phase_features(e))
+            .collect()
     }
 }

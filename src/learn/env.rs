@@ -22,4 +22,14 @@ pub trait MultiAgentEnv {
     fn save_state(&self, archive: &mut Archive) -> Result<(), EnvError>;
     /// Restores what `save_state` wrote into environments of the same shape.
     fn load_state(&mut self, archive: &Archive) -> Result<(), EnvError>;
+    /// Length G of the global state an environment offers a centralised critic beyond the
+    /// agents' joint observations (0: none, the default).
+    fn global_state_dim(&self) -> usize {
+        0
+    }
+    /// The global state `[E][G]` of every environment now (after `reset` or `step`: the state
+    /// that goes with the observations just returned).
+    fn global_state(&self) -> Vec<f32> {
+        Vec::new()
+    }
 }

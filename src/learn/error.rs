@@ -37,6 +37,17 @@ pub enum LearnError {
     /// A checkpoint or policy file does not hold what the learner needs.
     #[error(transparent)]
     Checkpoint(#[from] CheckpointError),
+    /// The environment offers a global state of another length than the critic reads.
+    #[error(
+        "the critic reads {want} global-state inputs but the environment offers {have}: make the \
+         learner with the environment's `global_state_dim()` (or 0 to leave it out)"
+    )]
+    GlobalState {
+        /// Inputs the critic was made for.
+        want: usize,
+        /// What the environment gave per environment.
+        have: usize,
+    },
     /// The environment the learner drives failed.
     #[error(transparent)]
     Env(EnvError),

@@ -3,7 +3,8 @@
 //! (log_std = MIN + (MAX - MIN) sigmoid(raw + ln(-MIN / MAX)): a smooth bound in [MIN, MAX] that is
 //! 0 for a raw output of 0 and never loses its gradient, unlike a hard clamp, whose zero gradient
 //! past the bound once left a run stuck at MAX).
-//! Critic (centralised): joint state [B, N*8] -> 256 -> 256 (tanh) -> three linear heads of N
+//! Critic (centralised): joint state [B, N*8 + G] (the joint observations, then G global-state
+//! inputs such as the inlet phase; G = 0 by default) -> 256 -> 256 (tanh) -> three linear heads of N
 //! values each -> [B, 3, N] (progress, energy, smoothness).
 //! Parameters are named through `VarBuilder::pp("actor")` / `pp("critic")`.
 //! The learner trains with the same networks written out by hand on f32 slices
@@ -188,10 +189,11 @@ pub struct Critic {
 }
 
 impl Critic {
-    /// The critic's layers `l1`, `l2` and the three heads under `vb`, for `agents` agents.
-    pub fn new(vb: VarBuilder, agents: usize, obs_dim: usize) -> Result<Self> {
+    /// The critic's layers `l1`, `l2` and the three heads under `vb`, for `agents` agents and
+    /// `global_dim` global-state inputs after their joint observations.
+    pub fn new(vb: VarBuilder, agents: usize, obs_dim: usize, global_dim: usize) -> Result<Self> {
         Ok(Self {
-            l1: linear(agents * obs_dim, HIDDEN, vb.pp("l1"))?,
+            l1: linear(agents * obs_dim + global_dim, HIDDEN, vb.pp("l1"))?,
             l2: linear(HIDDEN, HIDDEN, vb.pp("l2"))?,
             heads: [
                 linear(HIDDEN, agents, vb.pp("progress"))?,
@@ -201,7 +203,7 @@ impl Critic {
         })
     }
 
-    /// Values [B, 3, N] for joint states [B, N*obs_dim].
+    /// Values [B, 3, N] for joint states [B, N*obs_dim + global_dim].
     pub fn forward(&self, state: &Tensor) -> Result<Tensor> {
         let h = self.l2.forward(&self.l1.forward(state)?.tanh()?)?.tanh()?;
         let heads: Vec<Tensor> = self
@@ -241,7 +243,7 @@ mod tests {
         let vm = VarMap::new();
         let vb = VarBuilder::from_varmap(&vm, DType::F32, &dev);
         let actor = Actor::new(vb.pp("actor"), 8, 2).unwrap();
-        let critic = Critic::new(vb.pp("critic"), n, 8).unwrap();
+        let critic = Critic::new(vb.pp("critic"), n, 8, 0).unwrap();
         let state = Tensor::randn(0f32, 1.0, (b, n * 8), &dev).unwrap();
         assert_eq!(critic.forward(&state).unwrap().dims(), &[b, 3, n]);
         // One actor for every agent: its parameters do not depend on N, and an agent's output

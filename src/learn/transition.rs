@@ -73,6 +73,9 @@ pub struct Transition {
     pub diverged: Vec<bool>,
     /// `[N][8]` final observation of each environment whose episode ended this step.
     pub final_obs: Vec<Option<Vec<f32>>>,
+    /// `[G]` global state that goes with each `final_obs` (empty where the environment offers
+    /// none; [`super::env::MultiAgentEnv::global_state_dim`]).
+    pub final_global_state: Vec<Option<Vec<f32>>>,
     /// Metrics of each episode that ended this step.
     pub episodes: Vec<Option<EpisodeSummary>>,
 }

@@ -94,6 +94,9 @@ pub struct Learner {
     pub cfg: TrainConfig,
     agents: usize,
     obs_dim: usize,
+    /// Global-state inputs G of the critic after the joint observations (0 unless the learner
+    /// was made by [`Learner::with_global_state`]).
+    global_dim: usize,
     map: VarMap,
     /// candle's actor on the same variables: the reference the tests hold the hand-written
     /// passes to (training never runs it).
@@ -118,6 +121,27 @@ pub struct Learner {
     /// more than one (with the same result). The global pool stays free for the native fluid
     /// step.
     pool: std::sync::Arc<rayon::ThreadPool>,
+}
+
+/// The critic's inputs `[B][J + G]`: each row's joint observations `x` `[B][J]`, then its
+/// global state `global` `[B][G]` (borrowed as it is when G = 0).
+fn joint_states<'a>(
+    x: &'a [f32],
+    joint: usize,
+    global: &[f32],
+    g: usize,
+) -> std::borrow::Cow<'a, [f32]> {
+    if g == 0 {
+        return std::borrow::Cow::Borrowed(x);
+    }
+    let rows = x.len() / joint;
+    assert_eq!(global.len(), rows * g, "one global state per row");
+    let mut out = Vec::with_capacity(rows * (joint + g));
+    for (row, state) in x.chunks_exact(joint).zip(global.chunks_exact(g)) {
+        out.extend_from_slice(row);
+        out.extend_from_slice(state);
+    }
+    std::borrow::Cow::Owned(out)
 }
 
 fn adam(vars: &[(String, Var)], lr: f64) -> Adam {
@@ -182,18 +206,31 @@ impl Learner {
         cfg: TrainConfig,
         seed: u64,
     ) -> Result<Self, LearnError> {
+        Self::with_global_state(agents, obs_dim, 0, cfg, seed)
+    }
+
+    /// As [`Self::new`], with a critic that also reads `global_dim` inputs of the environment's
+    /// global state ([`MultiAgentEnv::global_state`]) after the joint observations; the
+    /// environment it iterates must offer exactly that many. The actor is unchanged.
+    pub fn with_global_state(
+        agents: usize,
+        obs_dim: usize,
+        global_dim: usize,
+        cfg: TrainConfig,
+        seed: u64,
+    ) -> Result<Self, LearnError> {
         let dev = Device::Cpu;
         let map = VarMap::new();
         let vb = VarBuilder::from_varmap(&map, DType::F32, &dev);
         let _actor = Actor::new(vb.pp("actor"), obs_dim, 2)?;
         // candle's critic only creates its variables (the checkpoints' names and shapes).
-        Critic::new(vb.pp("critic"), agents, obs_dim)?;
+        Critic::new(vb.pp("critic"), agents, obs_dim, global_dim)?;
         let mut rng = Rng::new(seed);
         seed_parameters(&map, &mut rng)?;
         let actor_vars = named_vars(&map, "actor");
         let critic_vars = named_vars(&map, "critic");
         let actor_layout = mlp::actor::layout(obs_dim, 2);
-        let critic_layout = mlp::critic::layout(agents, obs_dim);
+        let critic_layout = mlp::critic::layout(agents, obs_dim, global_dim);
         for (tag, layout, vars) in [
             ("actor", &actor_layout, &actor_vars),
             ("critic", &critic_layout, &critic_vars),
@@ -226,6 +263,7 @@ impl Learner {
             cfg,
             agents,
             obs_dim,
+            global_dim,
             map,
             #[cfg(test)]
             actor: _actor,
@@ -421,6 +459,21 @@ mod tests {
         let mut b = Learner::new(2, 8, plain, 4).unwrap();
         let e = b.load_state(&archive).unwrap_err().to_string();
         assert!(e.contains("normalize_observations"), "{e}");
+        // A critic that reads the inlet phase cannot take a phase-blind critic's weights, nor
+        // the other way round; the policy (the actor) loads either way.
+        let mut phased = Learner::with_global_state(2, 8, 2, small_cfg(), 4).unwrap();
+        let e = phased.load_state(&archive).unwrap_err().to_string();
+        assert!(e.contains("train.critic_phase = false"), "{e}");
+        phased.load_policy(&archive).unwrap();
+        let mut phased_archive = Archive::new();
+        phased.save_state(&mut phased_archive).unwrap();
+        let mut blind = Learner::new(2, 8, small_cfg(), 4).unwrap();
+        let e = blind.load_state(&phased_archive).unwrap_err().to_string();
+        assert!(e.contains("read 2 global-state inputs"), "{e}");
+        Learner::with_global_state(2, 8, 2, small_cfg(), 5)
+            .unwrap()
+            .load_state(&phased_archive)
+            .unwrap();
     }
 
     #[test]

@@ -52,11 +52,13 @@ impl Learner {
         squash::applied(self.cfg.action_distribution, raw)
     }
 
-    /// Values `[B][N][3]` of joint states given as network inputs `[B][N][D]`.
-    pub fn values(&self, obs: &[f32]) -> Result<Vec<f32>, LearnError> {
+    /// Values `[B][N][3]` of joint states given as network inputs `[B][N][D]` and global states
+    /// `[B][G]` (empty when the critic reads none).
+    pub fn values(&self, obs: &[f32], global: &[f32]) -> Result<Vec<f32>, LearnError> {
         self.pool.install(|| {
             let (n, b) = (self.agents, obs.len() / (self.agents * self.obs_dim));
-            let c = mlp::critic::forward(&self.critic_layout, &self.critic_p, obs, b);
+            let x = joint_states(obs, n * self.obs_dim, global, self.global_dim);
+            let c = mlp::critic::forward(&self.critic_layout, &self.critic_p, &x, b);
             // [B, 3, N] -> [B, N, 3].
             let mut v = vec![0.0f32; c.values.len()];
             for (at, x) in c.values.iter().enumerate() {
@@ -65,6 +67,28 @@ impl Learner {
             }
             Ok(v)
         })
+    }
+
+    /// The global state `[E][G]` of `env` now, checked against the critic's G (nothing is
+    /// asked of the environment when G = 0).
+    fn global_state_of(&self, env: &dyn MultiAgentEnv) -> Result<Vec<f32>, LearnError> {
+        if self.global_dim == 0 {
+            return Ok(Vec::new());
+        }
+        let state = env.global_state();
+        self.check_global(&state, env.n_env())?;
+        Ok(state)
+    }
+
+    /// `state` holds G values for each of `rows` rows.
+    fn check_global(&self, state: &[f32], rows: usize) -> Result<(), LearnError> {
+        if state.len() != rows * self.global_dim {
+            return Err(LearnError::GlobalState {
+                want: self.global_dim,
+                have: state.len() / rows.max(1),
+            });
+        }
+        Ok(())
     }
 
     /// Collects one rollout from `env` (continuing from `obs`) and updates the networks.
@@ -82,6 +106,13 @@ impl Learner {
             self.obs_dim,
         );
         let per_env = n * 3;
+        if self.global_dim > 0 && env.global_state_dim() != self.global_dim {
+            return Err(LearnError::GlobalState {
+                want: self.global_dim,
+                have: env.global_state_dim(),
+            });
+        }
+        let mut global_buf = Vec::with_capacity(t_len * ne * self.global_dim);
         let mut obs_buf = Vec::with_capacity(t_len * ne * n * d);
         let mut act_buf: Vec<[f32; 2]> = Vec::with_capacity(t_len * ne * n);
         let mut logp_buf = Vec::with_capacity(t_len * ne);
@@ -97,7 +128,8 @@ impl Learner {
             }
             let x = self.normalize(obs);
             let (actions, logp) = self.act(&x, false)?;
-            let v = self.values(&x)?;
+            let global = self.global_state_of(env)?;
+            let v = self.values(&x, &global)?;
             if t > 0 {
                 // V(s_t) bootstraps step t-1 where that episode went on.
                 for e in 0..ne {
@@ -109,6 +141,7 @@ impl Learner {
                 }
             }
             obs_buf.extend_from_slice(&x);
+            global_buf.extend_from_slice(&global);
             act_buf.extend_from_slice(&actions);
             logp_buf.extend(logp);
             values.extend_from_slice(&v);
@@ -121,7 +154,12 @@ impl Learner {
                 if tr.truncated[e]
                     && let Some(f) = &tr.final_obs[e]
                 {
-                    let vf = self.values(&self.normalize(f))?;
+                    let fg = match self.global_dim {
+                        0 => Vec::new(),
+                        _ => tr.final_global_state[e].clone().unwrap_or_default(),
+                    };
+                    self.check_global(&fg, 1)?;
+                    let vf = self.values(&self.normalize(f), &fg)?;
                     let dst = (t * ne + e) * per_env;
                     next_values[dst..dst + per_env].copy_from_slice(&vf);
                 }
@@ -134,7 +172,7 @@ impl Learner {
             div.extend_from_slice(&tr.diverged);
             *obs = tr.obs;
         }
-        let v_last = self.values(&self.normalize(obs))?;
+        let v_last = self.values(&self.normalize(obs), &self.global_state_of(env)?)?;
         for e in 0..ne {
             if !ended_prev[e] {
                 let dst = ((t_len - 1) * ne + e) * per_env;
@@ -170,8 +208,17 @@ impl Learner {
             }
         }
         let pool = self.pool.clone();
-        let stats = pool
-            .install(|| self.update(&obs_buf, &act_buf, &logp_buf, &adv, &returns, t_len * ne))?;
+        let stats = pool.install(|| {
+            self.update(
+                &obs_buf,
+                &global_buf,
+                &act_buf,
+                &logp_buf,
+                &adv,
+                &returns,
+                t_len * ne,
+            )
+        })?;
         Ok(Iteration {
             stats,
             episodes,

@@ -18,13 +18,30 @@ impl Learner {
         self.put_normalizer(archive);
         archive.put_u64("learner.rng", &[self.rng.0]);
         archive.put_u64("learner.shape", &[self.agents as u64, self.obs_dim as u64]);
+        archive.put_u64("learner.global_dim", &[self.global_dim as u64]);
         Ok(())
     }
 
     /// Restores what [`Self::save_state`] wrote; the learner must have the same agents,
-    /// observation size and normalisation setting.
+    /// observation size, normalisation setting and critic inputs.
     pub fn load_state(&mut self, archive: &Archive) -> Result<(), LearnError> {
         self.check_fits(archive)?;
+        // Checkpoints written before the critic could read a global state have none.
+        let saved = match archive.shape("learner.global_dim") {
+            Some(_) => archive.u64("learner.global_dim", Some(1))?[0] as usize,
+            None => 0,
+        };
+        if saved != self.global_dim {
+            return Err(archive
+                .mismatch(format!(
+                    "its critic read {saved} global-state inputs (train.critic_phase = {}), this \
+                     run's reads {} (train.critic_phase = {})",
+                    saved > 0,
+                    self.global_dim,
+                    self.global_dim > 0
+                ))
+                .into());
+        }
         // Read everything before changing anything, so a bad file leaves the learner intact.
         let vars = named_vars(&self.map, "");
         let params = read_params(archive, &vars)?;

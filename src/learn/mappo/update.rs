@@ -90,9 +90,14 @@ impl Learner {
         }
     }
 
+    /// One update from a rollout of `samples` joint transitions: network inputs `obs`
+    /// `[S][N][D]`, global states `global` `[S][G]` (empty when G = 0), raw actions `[S][N]`,
+    /// old joint log-probabilities `[S]`, advantages and returns `[S][N][3]`.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn update(
         &mut self,
         obs: &[f32],
+        global: &[f32],
         actions: &[[f32; 2]],
         logp_old: &[f32],
         adv: &[f32],
@@ -164,8 +169,10 @@ impl Learner {
                 self.opt_actor
                     .step_scaled(&mut self.actor_p, &g_actor, scale);
 
-                // The joint states are the same rows, [b, n d].
-                let c = mlp::critic::forward(&self.critic_layout, &self.critic_p, &x, b);
+                // The joint states are the same rows, [b, n d], then their global states [b, g].
+                let g = self.global_dim;
+                let state = joint_states(&x, n * d, &gather(global, g), g);
+                let c = mlp::critic::forward(&self.critic_layout, &self.critic_p, &state, b);
                 let (value_loss, gc) = mlp::critic::value_loss_grad(
                     &self.critic_layout,
                     &self.critic_p,

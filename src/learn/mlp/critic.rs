@@ -1,5 +1,5 @@
 //! The critic by hand (SPEC section 5; [`crate::learn::nets::Critic`] is the same network in
-//! candle): joint states x [B, N obs] -> 256 -> 256 (tanh) -> three heads of N values
+//! candle): joint states x [B, N obs + G] -> 256 -> 256 (tanh) -> three heads of N values
 //! (progress, energy, smoothness) -> v [B, 3, N].
 //!
 //! Its loss ([`value_loss_grad`]) is 0.5 x the sum of the three heads' MSE against returns
@@ -15,14 +15,15 @@ use crate::learn::nets::HIDDEN;
 pub const HEADS: [&str; 3] = ["progress", "energy", "smoothness"];
 
 /// The critic's parameters in name order: energy.{bias `[N]`, weight `[N, H]`}, l1.{bias `[H]`,
-/// weight `[H, N obs]`}, l2.{bias `[H]`, weight `[H, H]`}, progress.{..}, smoothness.{..}.
-pub fn layout(agents: usize, obs_dim: usize) -> Layout {
+/// weight `[H, N obs + G]`}, l2.{bias `[H]`, weight `[H, H]`}, progress.{..}, smoothness.{..}.
+/// G is the global-state inputs after the joint observations (`train.critic_phase`: 2).
+pub fn layout(agents: usize, obs_dim: usize, global_dim: usize) -> Layout {
     let (h, n) = (HIDDEN, agents);
     Layout::new(vec![
         ("energy.bias", vec![n]),
         ("energy.weight", vec![n, h]),
         ("l1.bias", vec![h]),
-        ("l1.weight", vec![h, n * obs_dim]),
+        ("l1.weight", vec![h, n * obs_dim + global_dim]),
         ("l2.bias", vec![h]),
         ("l2.weight", vec![h, h]),
         ("progress.bias", vec![n]),
@@ -32,12 +33,12 @@ pub fn layout(agents: usize, obs_dim: usize) -> Layout {
     ])
 }
 
-/// One forward pass: inputs [B, N obs], hidden tanh outputs [B, H], values [B, 3, N].
+/// One forward pass: inputs [B, N obs + G], hidden tanh outputs [B, H], values [B, 3, N].
 #[derive(Debug, Clone)]
 pub struct CriticActs {
     /// Number of rows B (joint states).
     pub rows: usize,
-    /// Inputs [B, N obs].
+    /// Inputs [B, N obs + G].
     pub x: Vec<f32>,
     /// First hidden layer's tanh output [B, H].
     pub h1: Vec<f32>,
@@ -47,7 +48,7 @@ pub struct CriticActs {
     pub values: Vec<f32>,
 }
 
-/// The critic on joint states `x` [rows, N obs] with parameters `p` (in `layout` order).
+/// The critic on joint states `x` [rows, N obs + G] with parameters `p` (in `layout` order).
 pub fn forward(layout: &Layout, p: &[f32], x: &[f32], rows: usize) -> CriticActs {
     let h1 = layout.dense(p, "l1").forward(x, rows, true);
     let h2 = layout.dense(p, "l2").forward(&h1, rows, true);
@@ -135,13 +136,20 @@ mod tests {
 
     #[test]
     fn the_hand_written_critic_and_its_loss_gradient_match_candles_autograd() {
+        // Without global state, and with the two phase inputs of `train.critic_phase`.
+        for global in [0, 2] {
+            critic_matches_autograd(global);
+        }
+    }
+
+    fn critic_matches_autograd(global: usize) {
         let dev = Device::Cpu;
         let (n, b) = (5, 7);
         let vm = VarMap::new();
         let vb = VarBuilder::from_varmap(&vm, DType::F32, &dev);
-        let critic = Critic::new(vb.pp("critic"), n, 8).unwrap();
+        let critic = Critic::new(vb.pp("critic"), n, 8, global).unwrap();
         let vars = named_vars(&vm, "critic");
-        let layout = layout(n, 8);
+        let layout = layout(n, 8, global);
         let names: Vec<String> = layout
             .params()
             .iter()
@@ -149,7 +157,7 @@ mod tests {
             .collect();
         assert_eq!(names, vars.iter().map(|v| v.0.clone()).collect::<Vec<_>>());
         let p = values(&vars).unwrap();
-        let state = Tensor::randn(0f32, 1.0, (b, n * 8), &dev).unwrap();
+        let state = Tensor::randn(0f32, 1.0, (b, n * 8 + global), &dev).unwrap();
         let ret = Tensor::randn(0f32, 1.0, (b, n, 3), &dev).unwrap();
         let flat = |t: &Tensor| -> Vec<f32> { t.flatten_all().unwrap().to_vec1().unwrap() };
         let acts = forward(&layout, &p, &flat(&state), b);

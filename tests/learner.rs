@@ -122,6 +122,16 @@ impl PhaseClock {
     const PERIOD: u32 = 16;
     const MAX: u32 = 40;
 
+    fn new(envs: usize) -> Self {
+        Self {
+            envs,
+            agents: 2,
+            t: vec![0; envs],
+            start: vec![0; envs],
+            rng: Rng::new(9),
+        }
+    }
+
     fn angle(&self, e: usize, t: u32) -> f64 {
         std::f64::consts::TAU * ((self.start[e] + t) % Self::PERIOD) as f64 / Self::PERIOD as f64
     }
@@ -208,13 +218,7 @@ fn phase_clock_value_loss(global: usize) -> f64 {
         ..Default::default()
     };
     let mut learner = Learner::with_global_state(2, 8, global, cfg, 3).unwrap();
-    let mut env = PhaseClock {
-        envs: 4,
-        agents: 2,
-        t: vec![0; 4],
-        start: vec![0; 4],
-        rng: Rng::new(9),
-    };
+    let mut env = PhaseClock::new(4);
     let mut obs = env.reset().unwrap();
     let losses: Vec<f64> = (0..30)
         .map(|_| {
@@ -246,13 +250,7 @@ fn a_critic_that_reads_the_phase_predicts_a_phase_driven_return() {
 #[test]
 fn a_critic_made_for_another_global_state_length_is_refused() {
     let mut learner = Learner::with_global_state(2, 8, 3, TrainConfig::default(), 3).unwrap();
-    let mut env = PhaseClock {
-        envs: 2,
-        agents: 2,
-        t: vec![0; 2],
-        start: vec![0; 2],
-        rng: Rng::new(9),
-    };
+    let mut env = PhaseClock::new(2);
     let mut obs = env.reset().unwrap();
     let err = learner.iterate(&mut env, &mut obs).unwrap_err().to_string();
     assert!(

@@ -369,10 +369,32 @@ fn eval_and_rollout_run_a_trained_checkpoint() {
         "swarm.count=3",
     ]);
     assert!(
-        !o.status.success() && text(&o).contains("drop --config/--set"),
+        !o.status.success()
+            && text(&o).contains("drop --config/--set")
+            && text(&o).contains("inlet.scale, swarm.max_thrust_n"),
         "{}",
         text(&o)
     );
+    // The scenario around it may change (a transfer test), and config.toml records it.
+    let moved = dir.path().join("moved");
+    let o = bin(&[
+        "rollout",
+        "--policy",
+        file.to_str().unwrap(),
+        "--set",
+        "inlet.scale=0.75",
+        "--set",
+        "swarm.max_thrust_n=1.25e-6",
+        "--out",
+        moved.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let saved = read(&moved.join("config.toml"));
+    assert!(
+        saved.contains("scale = 0.75") && saved.contains("max_thrust_n = 0.00000125"),
+        "{saved}"
+    );
+    assert!(saved.contains("count = 2"), "the members stay as trained");
 }
 
 /// A train run writes `policy.safetensors` (SPEC section 8) beside its checkpoints: the actor,

@@ -242,6 +242,29 @@ def test_the_examples_run(example):
     assert "timeout" in out or "failure" in out or "success" in out, out
 
 
+def test_momaland_momappo_example_trains_and_evaluates(tmp_path):
+    """MOMAland's own MOMAPPO through the example, for one update of 1280 steps on the small
+    channel, then its evaluation; skipped where MOMAland's learning stack is not installed
+    (`pip install "./python[momappo]"`: JAX and torch, too heavy for CI)."""
+    pytest.importorskip("momaland.learning.cooperative_momappo.continuous_momappo")
+    path = ROOT / "python" / "examples" / "momappo_frontier.py"
+    args = [sys.executable, str(path), "--steps", "1280", "--eval-envs", "2",
+            "--eval-episodes", "3", "--out", str(tmp_path)]
+    for s in SMALL:
+        args += ["--set", s]
+    out = subprocess.run(args, check=True, capture_output=True, text=True).stdout
+    assert "sampled: " in out and "deterministic: " in out, out
+    import json
+
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    for mode in ("sampled", "deterministic"):
+        s = summary[mode]
+        assert s["episodes"] == 3
+        assert s["successes"] + s["failures"] + s["timeouts"] == 3
+        with open(tmp_path / f"eval-{mode}.csv") as f:
+            assert len(list(csv.DictReader(f))) == 3
+
+
 def test_the_overhead_benchmark_runs():
     path = ROOT / "python" / "benches" / "overhead.py"
     args = [sys.executable, str(path), "--steps", "3"]

@@ -37,7 +37,22 @@ pub fn runs_on(opened: &Opened) -> String {
     format!("{}; {}", opened.batch.describe(), opened.why)
 }
 
-pub use fluxswarm_gpu::config::RUN_KEYS;
+pub use fluxswarm_gpu::config::{RUN_KEYS, TRANSFER_KEYS};
+
+/// Applies `--set` overrides to a trained policy's saved configuration: [`TRANSFER_KEYS`]
+/// change the scenario around the policy (a transfer test, written into `config.toml`),
+/// [`RUN_KEYS`] how the step runs; any other key is an error that says why.
+pub fn apply_policy_sets(resolved: &mut Resolved, sets: &[String]) -> anyhow::Result<()> {
+    let is_transfer = |s: &String| {
+        let key = s.split_once('=').map_or(s.as_str(), |(k, _)| k).trim();
+        TRANSFER_KEYS.contains(&key)
+    };
+    let (transfer, run): (Vec<String>, Vec<String>) = sets.iter().cloned().partition(is_transfer);
+    if !transfer.is_empty() {
+        *resolved = resolved.config.with_sets(&transfer)?;
+    }
+    apply_run_sets(resolved, &run, "a trained policy")
+}
 
 /// Applies `--set` overrides of [`RUN_KEYS`] to a saved configuration (a resumed run, a
 /// trained policy); any other key is an error that says why.
@@ -67,8 +82,16 @@ pub fn apply_run_sets(resolved: &mut Resolved, sets: &[String], what: &str) -> a
                 }
             }
             other => anyhow::bail!(
-                "{what} runs in the configuration saved with it, which `--set {other}=...` would change: drop --config/--set for it (only {} may be set: they change how the step runs, not what it computes)",
-                RUN_KEYS.join(" and ")
+                "{what} runs in the configuration saved with it, which `--set {other}=...` would change: drop --config/--set for it (only {} may be set: they change how the step runs, not what it computes{})",
+                RUN_KEYS.join(" and "),
+                if what == "a trained policy" {
+                    format!(
+                        "; and, to test how a policy transfers, the scenario keys {}",
+                        TRANSFER_KEYS.join(", ")
+                    )
+                } else {
+                    String::new()
+                }
             ),
         }
     }

@@ -1,5 +1,6 @@
 //! `fluxswarm-gpu eval --checkpoint PATH`: runs a trained policy (sampled, or its mean action
-//! with `--deterministic`) in the configuration saved with it and writes the same files as
+//! with `--deterministic`) in the configuration saved with it (or a changed scenario around it,
+//! `--set` of `config::TRANSFER_KEYS`) and writes the same files as
 //! `rollout` (episodes.csv, starts.csv, swarm.csv, trajectories.csv, config.toml, frames).
 
 use std::path::PathBuf;
@@ -42,7 +43,9 @@ pub struct EvalArgs {
     #[arg(long, value_enum, default_value_t = AdapterChoice::Auto)]
     pub adapter: AdapterChoice,
     /// How the step runs: `--set solver.backend=auto|adapter|native` (or
-    /// `solver.pressure_sweep=...`) over the checkpoint's configuration; nothing else.
+    /// `solver.pressure_sweep=...`) over the checkpoint's configuration; or, to test how the
+    /// policy transfers, the scenario around it: inlet.scale, swarm.max_thrust_n, domain.nx,
+    /// domain.ny, time.substeps or swarm.drag. Nothing else.
     #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
     pub sets: Vec<String>,
 }

@@ -3,7 +3,9 @@
 //! `swarm.csv`, `trajectories.csv` (SPEC section 7), `starts.csv` (the start phase of every
 //! episode), `config.toml` and frames of environment 0
 //! (`frames/env0_ep<episode:04>_s<step:06>.png`). A trained policy brings its configuration
-//! from its checkpoint, so it runs in the physics it was trained in.
+//! from its checkpoint, so it runs in the physics it was trained in; `--set` may change the
+//! scenario around it (`config::TRANSFER_KEYS`: flow scale, thrust, resolution) to test how
+//! it transfers, and `config.toml` records the changed scenario.
 //! The loop and the files are the library's ([`fluxswarm_gpu::rollout`]): this command parses
 //! the flags, writes `config.toml` with its header, and shows progress.
 
@@ -26,6 +28,9 @@ pub struct RolloutArgs {
     /// upstream, wall, wall-angle:DEG, zero, random, scripted (privileged: reads the inlet
     /// phase; scripted:CALM_DEG:STORM_DEG:START_S:END_S sets its parameters), or a trained
     /// checkpoint: a `.safetensors` file or a `train` run directory (its newest checkpoint).
+    /// A trained policy runs in its saved configuration; `--set` may change inlet.scale,
+    /// swarm.max_thrust_n, domain.nx, domain.ny, time.substeps and swarm.drag around it (a
+    /// transfer test) and solver.backend or solver.pressure_sweep.
     #[arg(long)]
     pub policy: String,
     /// With a trained policy: act with the mean action instead of sampling.
@@ -76,7 +81,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
                 );
             }
             let (policy, mut resolved) = Policy::load_trained(path, args.seed, args.deterministic)?;
-            super::common::apply_run_sets(&mut resolved, &args.common.sets, "a trained policy")?;
+            super::common::apply_policy_sets(&mut resolved, &args.common.sets)?;
             (resolved, policy)
         }
     };

@@ -22,6 +22,19 @@ use crate::waveform::{Waveform, WaveformError};
 /// it computes (the backends agree within the kernel tests' tolerance).
 pub const RUN_KEYS: [&str; 2] = ["solver.backend", "solver.pressure_sweep"];
 
+/// Keys a trained policy may be rolled out with changed (`rollout --policy RUN --set`), to test
+/// how it transfers: the flow's strength, the thrust and the resolution around the policy, not
+/// what it observes or how its actions are applied (the members, their layout and the
+/// observation's scales stay as trained).
+pub const TRANSFER_KEYS: [&str; 6] = [
+    "inlet.scale",
+    "swarm.max_thrust_n",
+    "domain.nx",
+    "domain.ny",
+    "time.substeps",
+    "swarm.drag",
+];
+
 /// Text of `configs/paper.toml`, the default configuration, embedded at compile time.
 pub const PAPER_TOML: &str = include_str!("../../configs/paper.toml");
 
@@ -159,6 +172,26 @@ impl Config {
         config.resolve()
     }
 
+    /// This configuration with `section.key=value` overrides applied, validated again (a saved
+    /// configuration changed for a transfer test, [`TRANSFER_KEYS`]).
+    pub fn with_sets(&self, sets: &[String]) -> Result<Resolved, ConfigError> {
+        let mut table: toml::Table = self
+            .to_toml()
+            .parse()
+            .expect("a configuration serialises to valid TOML");
+        for arg in sets {
+            apply_set(&mut table, arg)?;
+        }
+        let config: Config =
+            serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
+                ConfigError::Key {
+                    key: e.path().to_string(),
+                    message: e.into_inner().message().to_string(),
+                }
+            })?;
+        config.resolve()
+    }
+
     /// Cell width along x, L / nx (m).
     pub fn dx(&self) -> f64 {
         self.domain.length_m / self.domain.nx as f64
@@ -223,6 +256,26 @@ mod tests {
         assert_eq!(r.config.domain.nx, 500);
         assert_eq!(r.config.solver.advection, Advection::SemiLagrangian);
         assert!((r.waveform.at(0.25) - 0.15).abs() < 1e-12);
+    }
+
+    #[test]
+    fn with_sets_changes_only_the_set_keys_and_validates_again() {
+        let base = Config::load(None, &[]).unwrap().config;
+        let r = base
+            .with_sets(&["inlet.scale=0.5".into(), "swarm.max_thrust_n=1e-6".into()])
+            .unwrap();
+        let mut expected = base.clone();
+        expected.inlet.scale = 0.5;
+        expected.swarm.max_thrust_n = 1e-6;
+        assert_eq!(r.config, expected);
+        // 0.5 of the paper's 400 mm/s peak.
+        assert!((r.waveform.peak_abs() - 0.2).abs() < 1e-12);
+        // Validated again: the paper's grid is at CFL 1, so a faster flow is refused.
+        assert!(matches!(
+            base.with_sets(&["inlet.scale=1.5".into()]),
+            Err(ConfigError::Range { key, .. }) if key == "time.substeps"
+        ));
+        assert!(base.with_sets(&["swarm.nope=1".into()]).is_err());
     }
 
     #[test]

@@ -1,0 +1,109 @@
+#!/usr/bin/env bash
+# Issue 19's protocol end to end (docs/controllability.md, "Protocol for learning at the
+# frontier"). It is resumable: re-run it and it continues where it stopped. Finished stages
+# and runs are kept, and a train run that stopped continues from its newest checkpoint.
+#
+# Usage: bash experiments/frontier_learners.sh [SWEEP_DIR]   (default runs/frontier-learners)
+#
+# FRONTIER_STAGES picks the stages, in this order (default all four):
+# - train: the sweep experiments/sweeps/frontier-learners.toml, one run at a time in the
+#   protocol's seed-major order (seed 1 of variants 0-7, then seed 2, ...). With
+#   FRONTIER_SLURM=1 it writes the Slurm array and submits it instead, every run at once.
+# - eval: every finished run, 40 episodes at seed 201 on 4 environments, once sampled and once
+#   with the mean action. Output goes to SWEEP_DIR/eval/<run>/{sampled,deterministic}.
+# - comparators: the nine comparators, 40 episodes at seed 201 (frontier_check.sh). Output
+#   goes to SWEEP_DIR/comparators.
+# - neighbours: every finished run, sampled, 40 episodes at seed 201, at flow scale x0.9 and
+#   x1.1 and at F_max x0.75 and x1.25 (`rollout --policy RUN --set`, config::TRANSFER_KEYS).
+#   Output goes to SWEEP_DIR/neighbours/<run>/<change>.
+source "$(dirname "$0")/common.sh"
+cd "$ROOT"
+S=${1:-runs/frontier-learners}
+# The protocol's; other values are for trying the script on a small sweep.
+SPEC=${FRONTIER_SPEC:-experiments/sweeps/frontier-learners.toml}
+CONFIG=${FRONTIER_CONFIG:-configs/frontier-fine-085.toml}
+K=${FRONTIER_EPISODES:-40}
+SEED=201
+read -r -a stages <<<"${FRONTIER_STAGES:-train eval comparators neighbours}"
+
+# The done runs' directories (relative to S), from a refreshed sweep.csv.
+done_runs() {
+    fluxswarm sweep --status --out "$S" >/dev/null
+    awk -F, 'NR > 1 && $3 == "done" { print $4 }' "$S/sweep.csv"
+}
+
+stage_train() {
+    [ -s "$S/sweep.toml" ] || fluxswarm sweep "$SPEC" --out "$S" --slurm >/dev/null
+    fluxswarm sweep --status --out "$S" >/dev/null
+    if [ "${FRONTIER_SLURM:-0}" = 1 ]; then
+        fluxswarm sweep --out "$S" --slurm --submit
+        return
+    fi
+    # sweep.csv has a row per run, point-major (run index = point x seeds + seed index).
+    local runs seeds s p i
+    runs=$(($(wc -l <"$S/sweep.csv") - 1))
+    seeds=$(awk -F, 'NR > 1 { print $2 }' "$S/sweep.csv" | sort -u | wc -l)
+    for s in $(seq 0 $((seeds - 1))); do
+        for p in $(seq 0 $((runs / seeds - 1))); do
+            i=$((p * seeds + s))
+            if [ "$(awk -F, -v r=$((i + 2)) 'NR == r { print $3 }' "$S/sweep.csv")" = done ]; then
+                continue
+            fi
+            say "train: task $i (point $p, seed index $s)"
+            fluxswarm sweep --task "$i" --out "$S" >>"$S/logs/task$i.log" 2>&1 ||
+                say "train: task $i stopped or failed (see $S/logs/task$i.log)"
+        done
+    done
+}
+
+# eval_once DIR ARGS...: `eval ARGS --episodes K --no-traces --out DIR` unless DIR holds K
+# episodes already.
+eval_once() {
+    local dir=$1
+    shift
+    if [ -s "$dir/episodes.csv" ] && [ "$(($(wc -l <"$dir/episodes.csv") - 1))" -ge "$K" ]; then
+        return
+    fi
+    rm -rf "$dir"
+    mkdir -p "$(dirname "$dir")"
+    say "eval $dir"
+    fluxswarm eval "$@" --envs 4 --episodes "$K" --seed "$SEED" --no-traces --out "$dir" \
+        >/dev/null 2>"$dir.log" || { say "eval $dir failed: $(tail -1 "$dir.log")"; return 1; }
+    rm -f "$dir.log"
+}
+
+stage_eval() {
+    local run
+    for run in $(done_runs); do
+        eval_once "$S/eval/$(basename "$run")/sampled" --checkpoint "$S/$run" || true
+        eval_once "$S/eval/$(basename "$run")/deterministic" --checkpoint "$S/$run" \
+            --deterministic || true
+    done
+}
+
+stage_comparators() {
+    CHECK_SEED=$SEED CHECK_EPISODES=$K \
+        CHECK_POLICIES="zero random upstream wall-angle:20 wall-angle:30 wall-angle:40 wall-angle:60 wall scripted" \
+        bash experiments/frontier_check.sh "$CONFIG" "$S/comparators"
+}
+
+stage_neighbours() {
+    local run change
+    local -A sets=(
+        [scale-x0.9]="inlet.scale=0.765" [scale-x1.1]="inlet.scale=0.935"
+        [thrust-x0.75]="swarm.max_thrust_n=6.375e-7" [thrust-x1.25]="swarm.max_thrust_n=1.0625e-6"
+    )
+    for run in $(done_runs); do
+        for change in scale-x0.9 scale-x1.1 thrust-x0.75 thrust-x1.25; do
+            episodes_once "$S/neighbours/$(basename "$run")/$change" "$K" \
+                --set "${sets[$change]}" --policy "$S/$run" --envs 4 --seed "$SEED" || true
+        done
+    done
+}
+
+for stage in "${stages[@]}"; do
+    case $stage in
+        train | eval | comparators | neighbours) "stage_$stage" ;;
+        *) echo "unknown stage '$stage' (train, eval, comparators, neighbours)" >&2; exit 2 ;;
+    esac
+done

@@ -5,7 +5,7 @@
 #
 # Usage: bash experiments/frontier_learners.sh [SWEEP_DIR]   (default runs/frontier-learners)
 #
-# FRONTIER_STAGES picks the stages, in this order (default all four):
+# FRONTIER_STAGES picks the stages, in this order (default all five):
 # - train: the sweep experiments/sweeps/frontier-learners.toml, one run at a time in the
 #   protocol's seed-major order (seed 1 of variants 0-7, then seed 2, ...). With
 #   FRONTIER_SLURM=1 it writes the Slurm array and submits it instead, every run at once.
@@ -16,6 +16,9 @@
 # - neighbours: every finished run, sampled, 40 episodes at seed 201, at flow scale x0.9 and
 #   x1.1 and at F_max x0.75 and x1.25 (`rollout --policy RUN --set`, config::TRANSFER_KEYS).
 #   Output goes to SWEEP_DIR/neighbours/<run>/<change>.
+# - report: `report --frontier` into SWEEP_DIR/report (frontier.md, frontier.csv): each
+#   variant's pooled success rate and metrics per evaluation, with bootstrap 95 % intervals
+#   over seeds, the comparators and the goal. It reads whatever has finished so far.
 source "$(dirname "$0")/common.sh"
 cd "$ROOT"
 S=${1:-runs/frontier-learners}
@@ -24,7 +27,7 @@ SPEC=${FRONTIER_SPEC:-experiments/sweeps/frontier-learners.toml}
 CONFIG=${FRONTIER_CONFIG:-configs/frontier-fine-085.toml}
 K=${FRONTIER_EPISODES:-40}
 SEED=201
-read -r -a stages <<<"${FRONTIER_STAGES:-train eval comparators neighbours}"
+read -r -a stages <<<"${FRONTIER_STAGES:-train eval comparators neighbours report}"
 
 # The done runs' directories (relative to S), from a refreshed sweep.csv.
 done_runs() {
@@ -101,9 +104,17 @@ stage_neighbours() {
     done
 }
 
+stage_report() {
+    fluxswarm report --frontier "$S" --out "$S/report" >/dev/null
+    say "report: $S/report/frontier.md"
+}
+
 for stage in "${stages[@]}"; do
     case $stage in
-        train | eval | comparators | neighbours) "stage_$stage" ;;
-        *) echo "unknown stage '$stage' (train, eval, comparators, neighbours)" >&2; exit 2 ;;
+        train | eval | comparators | neighbours | report) "stage_$stage" ;;
+        *)
+            echo "unknown stage '$stage' (train, eval, comparators, neighbours, report)" >&2
+            exit 2
+            ;;
     esac
 done

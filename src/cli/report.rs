@@ -1,7 +1,8 @@
 //! `fluxswarm-gpu report`: figures and `report.md` from train runs (RUN_DIR…, one per seed),
 //! a compared experiment (`--compare`), baselines (`--baseline`) and a before/after pair of
-//! rollout or eval directories (see `fluxswarm_gpu::report`), or a sweep (`--sweep DIR`,
-//! `report::sweep`). Needs no adapter.
+//! rollout or eval directories (see `fluxswarm_gpu::report`), a sweep (`--sweep DIR`,
+//! `report::sweep`) or the frontier protocol's sweep (`--frontier DIR`, `report::frontier`).
+//! Needs no adapter.
 
 use std::path::PathBuf;
 
@@ -12,12 +13,17 @@ use fluxswarm_gpu::report::{self, Inputs};
 #[derive(Debug, Args)]
 pub struct ReportArgs {
     /// Train run directories of one experiment (several: one per seed).
-    #[arg(required_unless_present = "sweep", value_name = "RUN_DIR")]
+    #[arg(required_unless_present_any = ["sweep", "frontier"], value_name = "RUN_DIR")]
     pub runs: Vec<PathBuf>,
     /// A sweep directory (`fluxswarm-gpu sweep`): one table of every point's final metrics
     /// over seeds, sweep_points.csv, and a line or heatmap figure for one or two grid keys.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["runs", "compare", "baseline", "before", "after"])]
     pub sweep: Option<PathBuf>,
+    /// The sweep directory of `experiments/frontier_learners.sh` (issue 19's protocol): every
+    /// variant's pooled success rate and metrics per evaluation with bootstrap intervals over
+    /// seeds, the comparators, and the goal (frontier.md, frontier.csv).
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["runs", "sweep", "compare", "baseline", "before", "after"])]
+    pub frontier: Option<PathBuf>,
     /// Train run directories of an experiment to overlay (e.g. the --no-pcgrad ablation; one
     /// per seed).
     #[arg(long, value_name = "RUN_DIR", num_args = 1..)]
@@ -37,6 +43,14 @@ pub struct ReportArgs {
 }
 
 pub fn run(args: ReportArgs) -> anyhow::Result<()> {
+    if let Some(dir) = &args.frontier {
+        let out = args.out.unwrap_or_else(|| run_dir::default_dir("report"));
+        let out = run_dir::prepare(&out, &[])?;
+        report::frontier_output::write(dir, &out)?;
+        log::info!("frontier.md and frontier.csv");
+        println!("{}", out.display());
+        return Ok(());
+    }
     if let Some(dir) = &args.sweep {
         let out = args.out.unwrap_or_else(|| run_dir::default_dir("report"));
         let out = run_dir::prepare(&out, &[])?;

@@ -15,6 +15,8 @@
 pub mod analysis;
 pub mod data;
 pub mod error;
+pub mod frontier;
+pub mod frontier_output;
 pub mod heatmap;
 pub mod map;
 pub mod map_output;

@@ -1,0 +1,461 @@
+//! `report --frontier DIR`: the summary of issue 19's protocol (docs/controllability.md) from a
+//! sweep directory that `experiments/frontier_learners.sh` filled:
+//! - `DIR/sweep.csv`: the runs (point = variant, seed);
+//! - `DIR/eval/<run>/{sampled,deterministic}/episodes.csv`;
+//! - `DIR/neighbours/<run>/<change>/episodes.csv`;
+//! - `DIR/comparators/<policy>/episodes.csv`.
+//!
+//! For each variant and evaluation (sampled, deterministic, each neighbour), over the S seeds
+//! evaluated:
+//! - the pooled success rate, sum k / sum n;
+//! - progress, energy and smoothness, the mean over seeds of each run's episode mean;
+//! - for each, a 95 % percentile bootstrap over seeds: B resamples of the S seeds with
+//!   replacement (SplitMix64, seed 0), with the 2.5th and 97.5th percentiles of the statistic.
+//!
+//! Comparators get k/n with their successes. The protocol's bar: a variant passes when its
+//! pooled sampled rate is at least 80 % and every constant comparator's is at most 20 %.
+//! `frontier_output` writes `frontier.md` and `frontier.csv`.
+
+use std::path::{Path, PathBuf};
+
+use super::data::read_episodes;
+use super::error::{ReportError, Result};
+use super::map::is_constant;
+use crate::rng::Rng;
+
+/// Bootstrap resamples.
+pub const DRAWS: usize = 10_000;
+/// The bar a variant's pooled sampled success rate must reach.
+pub const GOAL: f64 = 0.8;
+/// The bar every constant comparator must stay at or under for the goal to mean anything.
+pub const CONSTANT_BAR: f64 = 0.2;
+
+/// One run's evaluation: its successes and episodes, and its mean progress, energy, smoothness.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunEval {
+    /// Successful episodes.
+    pub successes: usize,
+    /// Episodes evaluated.
+    pub episodes: usize,
+    /// Mean progress, energy and smoothness over the episodes.
+    pub means: [f64; 3],
+}
+
+/// A statistic with its 95 % bootstrap interval.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// The statistic on the seeds as they are.
+    pub value: f64,
+    /// 2.5th percentile over the resamples.
+    pub lo: f64,
+    /// 97.5th percentile over the resamples.
+    pub hi: f64,
+}
+
+/// The pooled success rate and the three metrics over seeds, each with its bootstrap interval.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pooled {
+    /// sum k / sum n.
+    pub success: Estimate,
+    /// Mean over seeds of progress, energy and smoothness.
+    pub metrics: [Estimate; 3],
+}
+
+fn statistic(runs: &[RunEval], pick: &[usize]) -> [f64; 4] {
+    let (k, n) = pick.iter().fold((0, 0), |(k, n), &i| {
+        (k + runs[i].successes, n + runs[i].episodes)
+    });
+    let mut out = [k as f64 / n.max(1) as f64, 0.0, 0.0, 0.0];
+    for m in 0..3 {
+        out[m + 1] = pick.iter().map(|&i| runs[i].means[m]).sum::<f64>() / pick.len() as f64;
+    }
+    out
+}
+
+/// The percentile (nearest rank, p in [0, 1]) of sorted values.
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    let i = ((p * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len()) - 1;
+    sorted[i]
+}
+
+/// The pooled statistics of `runs` with 95 % percentile bootstrap intervals over seeds from
+/// `draws` resamples; None for no runs.
+pub fn bootstrap(runs: &[RunEval], draws: usize, seed: u64) -> Option<Pooled> {
+    if runs.is_empty() {
+        return None;
+    }
+    let s = runs.len();
+    let all: Vec<usize> = (0..s).collect();
+    let point = statistic(runs, &all);
+    let mut rng = Rng::new(seed);
+    let mut samples: [Vec<f64>; 4] = Default::default();
+    let mut pick = vec![0; s];
+    for _ in 0..draws {
+        for p in pick.iter_mut() {
+            *p = (rng.next_u64() % s as u64) as usize;
+        }
+        for (v, x) in samples.iter_mut().zip(statistic(runs, &pick)) {
+            v.push(x);
+        }
+    }
+    let est: Vec<Estimate> = samples
+        .iter_mut()
+        .zip(point)
+        .map(|(v, value)| {
+            v.sort_by(f64::total_cmp);
+            Estimate {
+                value,
+                lo: percentile(v, 0.025),
+                hi: percentile(v, 0.975),
+            }
+        })
+        .collect();
+    Some(Pooled {
+        success: est[0],
+        metrics: [est[1], est[2], est[3]],
+    })
+}
+
+/// One evaluation of one run, read from its `episodes.csv`; None when the file is absent.
+pub fn read_eval(dir: &Path) -> Result<Option<RunEval>> {
+    let path = dir.join("episodes.csv");
+    if !path.exists() {
+        return Ok(None);
+    }
+    let episodes = read_episodes(&path, false)?;
+    if episodes.is_empty() {
+        return Ok(None);
+    }
+    let n = episodes.len() as f64;
+    let mut means = [0.0; 3];
+    for e in &episodes {
+        for (m, v) in means.iter_mut().zip(e.metrics) {
+            *m += v / n;
+        }
+    }
+    Ok(Some(RunEval {
+        successes: episodes.iter().filter(|e| e.outcome == "success").count(),
+        episodes: episodes.len(),
+        means,
+    }))
+}
+
+/// A sweep run: its variant (point), label, seed and directory name.
+#[derive(Debug, Clone)]
+struct SweepRun {
+    point: usize,
+    overrides: String,
+    name: String,
+}
+
+fn sweep_runs(root: &Path) -> Result<Vec<SweepRun>> {
+    let path = root.join("sweep.csv");
+    let bad = |e: csv::Error| ReportError::Invalid(format!("reading {}: {e}", path.display()));
+    let mut reader = csv::Reader::from_path(&path).map_err(|e| {
+        ReportError::Usage(format!(
+            "reading {}: {e} (is {} the sweep directory of experiments/frontier_learners.sh?)",
+            path.display(),
+            root.display()
+        ))
+    })?;
+    let header = reader.headers().map_err(bad)?.clone();
+    let col = |name: &str| {
+        header.iter().position(|h| h == name).ok_or_else(|| {
+            ReportError::Invalid(format!("{} has no column `{name}`", path.display()))
+        })
+    };
+    let (point_c, dir_c, over_c) = (col("point")?, col("dir")?, col("overrides")?);
+    let mut runs = Vec::new();
+    for row in reader.records() {
+        let row = row.map_err(bad)?;
+        let point = row[point_c].parse().map_err(|_| {
+            ReportError::Invalid(format!("{}: point {:?}", path.display(), &row[point_c]))
+        })?;
+        let name = Path::new(&row[dir_c])
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        runs.push(SweepRun {
+            point,
+            overrides: row[over_c].to_string(),
+            name,
+        });
+    }
+    Ok(runs)
+}
+
+/// One row of the table: a variant under one evaluation.
+#[derive(Debug, Clone)]
+pub struct Row {
+    /// The variant (sweep point).
+    pub variant: usize,
+    /// Its overrides, as sweep.csv gives them.
+    pub overrides: String,
+    /// `sampled`, `deterministic` or a neighbour (`neighbours/scale-x0.9`, ...).
+    pub evaluation: String,
+    /// Runs of the variant in the sweep.
+    pub seeds: usize,
+    /// Each evaluated run's result.
+    pub runs: Vec<RunEval>,
+    /// Pooled over the evaluated runs.
+    pub pooled: Option<Pooled>,
+}
+
+/// A comparator: its name, successes and episodes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Comparator {
+    /// The policy, as its directory name (`wall-angle-40`).
+    pub policy: String,
+    /// Successful episodes.
+    pub successes: usize,
+    /// Episodes.
+    pub episodes: usize,
+}
+
+fn subdirs(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.is_dir())
+        .collect();
+    v.sort();
+    v
+}
+
+/// Reads the variants' evaluations and the comparators under `root`.
+pub fn load(root: &Path) -> Result<(Vec<Row>, Vec<Comparator>)> {
+    let runs = sweep_runs(root)?;
+    let mut evaluations = vec!["sampled".to_string(), "deterministic".to_string()];
+    let mut changes: Vec<String> = subdirs(&root.join("neighbours"))
+        .iter()
+        .flat_map(|d| subdirs(d))
+        .filter_map(|d| Some(d.file_name()?.to_string_lossy().into_owned()))
+        .collect();
+    changes.sort();
+    changes.dedup();
+    evaluations.extend(changes.into_iter().map(|c| format!("neighbours/{c}")));
+    let variants = runs.iter().map(|r| r.point + 1).max().unwrap_or(0);
+    let mut rows = Vec::new();
+    for evaluation in &evaluations {
+        for v in 0..variants {
+            let of: Vec<&SweepRun> = runs.iter().filter(|r| r.point == v).collect();
+            let mut evals = Vec::new();
+            for r in &of {
+                let dir = match evaluation.strip_prefix("neighbours/") {
+                    Some(change) => root.join("neighbours").join(&r.name).join(change),
+                    None => root.join("eval").join(&r.name).join(evaluation),
+                };
+                if let Some(e) = read_eval(&dir)? {
+                    evals.push(e);
+                }
+            }
+            rows.push(Row {
+                variant: v,
+                overrides: of.first().map(|r| r.overrides.clone()).unwrap_or_default(),
+                evaluation: evaluation.clone(),
+                seeds: of.len(),
+                pooled: bootstrap(&evals, DRAWS, 0),
+                runs: evals,
+            });
+        }
+    }
+    let mut comparators = Vec::new();
+    for d in subdirs(&root.join("comparators")) {
+        if let Some(e) = read_eval(&d)? {
+            comparators.push(Comparator {
+                policy: d
+                    .file_name()
+                    .unwrap_or_default()
+                    .to_string_lossy()
+                    .into_owned(),
+                successes: e.successes,
+                episodes: e.episodes,
+            });
+        }
+    }
+    Ok((rows, comparators))
+}
+
+/// The comparator's policy name as the CLI spells it (`wall-angle-40` -> `wall-angle:40`).
+pub fn policy_name(dir_name: &str) -> String {
+    match dir_name.strip_prefix("wall-angle-") {
+        Some(deg) => format!("wall-angle:{deg}"),
+        None => dir_name.to_string(),
+    }
+}
+
+/// Whether every constant comparator is at or under the bar (None: no constant comparator).
+pub fn constants_under_bar(comparators: &[Comparator]) -> Option<bool> {
+    let constants: Vec<&Comparator> = comparators
+        .iter()
+        .filter(|c| is_constant(&policy_name(&c.policy)))
+        .collect();
+    (!constants.is_empty()).then(|| {
+        constants
+            .iter()
+            .all(|c| c.successes as f64 <= CONSTANT_BAR * c.episodes as f64)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(k: usize, n: usize, progress: f64) -> RunEval {
+        RunEval {
+            successes: k,
+            episodes: n,
+            means: [progress, 0.5, 0.25],
+        }
+    }
+
+    #[test]
+    fn the_pooled_rate_is_successes_over_episodes_and_metrics_average_over_seeds() {
+        let runs = [run(10, 40, 1.0), run(30, 40, 3.0), run(20, 20, 8.0)];
+        let p = bootstrap(&runs, 2000, 7).unwrap();
+        assert_eq!(p.success.value, 60.0 / 100.0);
+        assert_eq!(p.metrics[0].value, 4.0);
+        assert_eq!(p.metrics[1].value, 0.5);
+        // Every resample pools some of the three runs: between 10/40 and 20/20.
+        assert!(p.success.lo >= 0.25 && p.success.hi <= 1.0);
+        assert!(p.success.lo < p.success.value && p.success.value < p.success.hi);
+        // Constant metric across seeds: a zero-width interval.
+        assert_eq!((p.metrics[1].lo, p.metrics[1].hi), (0.5, 0.5));
+        assert!(bootstrap(&[], 10, 0).is_none());
+    }
+
+    #[test]
+    fn two_seeds_give_the_hand_computed_bootstrap_distribution() {
+        // Two seeds, 0/10 and 10/10: a resample is both of one seed (rate 0 or 1, each with
+        // probability 1/4) or one of each (rate 1/2). So the 2.5th percentile is 0 and the
+        // 97.5th is 1.
+        let runs = [run(0, 10, 0.0), run(10, 10, 1.0)];
+        let p = bootstrap(&runs, 20_000, 3).unwrap();
+        assert_eq!(
+            (p.success.lo, p.success.value, p.success.hi),
+            (0.0, 0.5, 1.0)
+        );
+        // One seed: every resample is that seed.
+        let p = bootstrap(&runs[1..], 100, 3).unwrap();
+        assert_eq!(
+            (p.success.lo, p.success.value, p.success.hi),
+            (1.0, 1.0, 1.0)
+        );
+    }
+
+    #[test]
+    fn percentile_is_the_nearest_rank() {
+        let v: Vec<f64> = (1..=40).map(f64::from).collect();
+        assert_eq!(percentile(&v, 0.025), 1.0);
+        assert_eq!(percentile(&v, 0.975), 39.0);
+        assert_eq!(percentile(&v, 0.5), 20.0);
+    }
+
+    #[test]
+    fn the_bar_counts_only_constant_controllers() {
+        let c = |p: &str, k| Comparator {
+            policy: p.into(),
+            successes: k,
+            episodes: 40,
+        };
+        assert_eq!(constants_under_bar(&[]), None);
+        let mut cs = vec![c("zero", 0), c("wall-angle-40", 8), c("scripted", 30)];
+        assert_eq!(constants_under_bar(&cs), Some(true));
+        cs.push(c("wall", 9));
+        assert_eq!(constants_under_bar(&cs), Some(false));
+        assert_eq!(policy_name("wall-angle-40"), "wall-angle:40");
+    }
+
+    fn episodes(dir: &Path, outcomes: &[(&str, f64)]) {
+        std::fs::create_dir_all(dir).unwrap();
+        let mut text = "env,episode,steps,outcome,progress,energy,smoothness,progress_mean,\
+                        energy_sum,smoothness_sum,scalar_return,final_x_com_mm\n"
+            .to_string();
+        for (i, (outcome, progress)) in outcomes.iter().enumerate() {
+            text += &format!("0,{i},10,{outcome},{progress},0.5,0.25,0,0,0,0,50\n");
+        }
+        std::fs::write(dir.join("episodes.csv"), text).unwrap();
+    }
+
+    #[test]
+    fn load_reads_each_variant_evaluation_and_comparator_from_the_directories() {
+        let root = tempfile::tempdir().unwrap();
+        let root = root.path();
+        std::fs::write(
+            root.join("sweep.csv"),
+            "point,seed,status,dir,overrides,--steps,commit,backend,threads,host\n\
+             0,1,done,runs/p000_a_seed1,--steps=8,8,c,native,1,vm\n\
+             0,2,done,runs/p000_a_seed2,--steps=8,8,c,native,1,vm\n\
+             1,1,done,runs/p001_b_seed1,\"--steps=8 --no-pcgrad=true\",8,c,native,1,vm\n\
+             1,2,pending,runs/p001_b_seed2,\"--steps=8 --no-pcgrad=true\",8,c,,,\n",
+        )
+        .unwrap();
+        let eval = root.join("eval");
+        episodes(
+            &eval.join("p000_a_seed1/sampled"),
+            &[("success", 2.0), ("failure", 0.0)],
+        );
+        episodes(
+            &eval.join("p000_a_seed2/sampled"),
+            &[("success", 4.0), ("success", 6.0)],
+        );
+        episodes(&eval.join("p001_b_seed1/sampled"), &[("timeout", 1.0)]);
+        episodes(
+            &eval.join("p000_a_seed1/deterministic"),
+            &[("failure", -1.0)],
+        );
+        episodes(
+            &root.join("neighbours/p000_a_seed2/scale-x0.9"),
+            &[("success", 3.0)],
+        );
+        episodes(
+            &root.join("comparators/wall-angle-40"),
+            &[("success", 0.0), ("failure", 0.0)],
+        );
+        episodes(&root.join("comparators/scripted"), &[("success", 0.0)]);
+        let (rows, comparators) = load(root).unwrap();
+        let row = |v: usize, e: &str| {
+            rows.iter()
+                .find(|r| r.variant == v && r.evaluation == e)
+                .unwrap()
+        };
+        let a = row(0, "sampled");
+        assert_eq!((a.runs.len(), a.seeds), (2, 2));
+        let p = a.pooled.unwrap();
+        assert_eq!(p.success.value, 3.0 / 4.0);
+        // Seed means 1.0 and 5.0.
+        assert_eq!(p.metrics[0].value, 3.0);
+        let b = row(1, "sampled");
+        assert_eq!((b.runs.len(), b.seeds), (1, 2));
+        assert_eq!(b.overrides, "--steps=8 --no-pcgrad=true");
+        assert_eq!(b.pooled.unwrap().success.value, 0.0);
+        assert_eq!(row(0, "deterministic").runs.len(), 1);
+        assert!(row(1, "deterministic").pooled.is_none());
+        assert_eq!(row(0, "neighbours/scale-x0.9").runs, [run(1, 1, 3.0)]);
+        assert_eq!(rows.len(), 2 * 3);
+        assert_eq!(
+            comparators,
+            [
+                Comparator {
+                    policy: "scripted".into(),
+                    successes: 1,
+                    episodes: 1
+                },
+                Comparator {
+                    policy: "wall-angle-40".into(),
+                    successes: 1,
+                    episodes: 2
+                },
+            ]
+        );
+        assert_eq!(constants_under_bar(&comparators), Some(false));
+        let md = super::super::frontier_output::markdown(root, &rows, &comparators);
+        assert!(
+            md.contains("| 0 | --steps=8 | sampled | 2/2 | 75 % ["),
+            "{md}"
+        );
+        assert!(md.contains("| wall-angle:40 | yes | 1/2 = 50 %"), "{md}");
+    }
+}

@@ -1,0 +1,179 @@
+//! `frontier.md` and `frontier.csv` of `report --frontier` ([`super::frontier`]): one row per
+//! variant and evaluation (the pooled success rate, progress, energy and smoothness, each with
+//! its 95 % bootstrap interval over seeds, and each seed's successes), the comparators with
+//! their Wilson intervals, and the protocol's goal.
+
+use std::path::Path;
+
+use super::error::{ReportError, Result};
+use super::frontier::{
+    CONSTANT_BAR, Comparator, DRAWS, Estimate, GOAL, Row, constants_under_bar, load, policy_name,
+};
+use super::map::is_constant;
+use super::stats::wilson95;
+
+fn pct(e: &Estimate) -> String {
+    format!(
+        "{:.0} % [{:.0}, {:.0}]",
+        100.0 * e.value,
+        100.0 * e.lo,
+        100.0 * e.hi
+    )
+}
+
+/// `frontier.md`.
+pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator]) -> String {
+    let mut md = format!("# Learning at the frontier: {}\n\n", root.display());
+    md += &format!(
+        "Per variant and evaluation: the runs evaluated of the variant's seeds; the pooled \
+         success rate (sum of successes over sum of episodes); progress, energy and smoothness \
+         as the mean over seeds of each run's mean. Each comes with its 95 % percentile \
+         bootstrap interval over seeds ({DRAWS} resamples). A variant meets the goal when its \
+         pooled sampled rate is at least {:.0} % and every constant comparator's is at most \
+         {:.0} %.\n\n",
+        100.0 * GOAL,
+        100.0 * CONSTANT_BAR
+    );
+    md += "| variant | overrides | evaluation | runs | success | per seed | progress | energy | smoothness |\n";
+    md += "|---|---|---|---|---|---|---|---|---|\n";
+    for r in rows {
+        let per_seed: Vec<String> = r
+            .runs
+            .iter()
+            .map(|e| format!("{}/{}", e.successes, e.episodes))
+            .collect();
+        let cells = match &r.pooled {
+            Some(p) => [
+                pct(&p.success),
+                per_seed.join(" "),
+                format!(
+                    "{:.2} [{:.2}, {:.2}]",
+                    p.metrics[0].value, p.metrics[0].lo, p.metrics[0].hi
+                ),
+                format!(
+                    "{:.3} [{:.3}, {:.3}]",
+                    p.metrics[1].value, p.metrics[1].lo, p.metrics[1].hi
+                ),
+                format!(
+                    "{:.3} [{:.3}, {:.3}]",
+                    p.metrics[2].value, p.metrics[2].lo, p.metrics[2].hi
+                ),
+            ],
+            None => ["-", "-", "-", "-", "-"].map(String::from),
+        };
+        md += &format!(
+            "| {} | {} | {} | {}/{} | {} |\n",
+            r.variant,
+            r.overrides,
+            r.evaluation,
+            r.runs.len(),
+            r.seeds,
+            cells.join(" | ")
+        );
+    }
+    md += "\n## Comparators\n\n| policy | constant | success |\n|---|---|---|\n";
+    for c in comparators {
+        let (lo, hi) = wilson95(c.successes, c.episodes);
+        md += &format!(
+            "| {} | {} | {}/{} = {:.0} % [{:.0}, {:.0}] |\n",
+            policy_name(&c.policy),
+            if is_constant(&policy_name(&c.policy)) {
+                "yes"
+            } else {
+                "no"
+            },
+            c.successes,
+            c.episodes,
+            100.0 * c.successes as f64 / c.episodes.max(1) as f64,
+            100.0 * lo,
+            100.0 * hi
+        );
+    }
+    md += "\n## The goal\n\n";
+    md += &match constants_under_bar(comparators) {
+        None => "The comparators have not run yet.\n".to_string(),
+        Some(false) => format!(
+            "A constant comparator succeeds in more than {:.0} %, so the scenario does not meet \
+             the protocol's bar; the variants are compared with the best constant controller.\n",
+            100.0 * CONSTANT_BAR
+        ),
+        Some(true) => format!(
+            "Every constant comparator succeeds in at most {:.0} %.\n",
+            100.0 * CONSTANT_BAR
+        ),
+    };
+    for r in rows.iter().filter(|r| r.evaluation == "sampled") {
+        if let Some(p) = &r.pooled {
+            md += &format!(
+                "- variant {}: {} sampled ({} of {} seeds): {}\n",
+                r.variant,
+                pct(&p.success),
+                r.runs.len(),
+                r.seeds,
+                if p.success.value >= GOAL {
+                    "reaches 80 %"
+                } else {
+                    "below 80 %"
+                }
+            );
+        }
+    }
+    md
+}
+
+/// `frontier.csv`: one row per variant and evaluation.
+pub fn csv(rows: &[Row]) -> Result<Vec<u8>> {
+    let bad = |e: csv::Error| ReportError::Invalid(format!("frontier.csv: {e}"));
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let mut head: Vec<String> = [
+        "variant",
+        "overrides",
+        "evaluation",
+        "runs",
+        "seeds",
+        "successes",
+        "episodes",
+    ]
+    .map(String::from)
+    .to_vec();
+    for m in ["success_rate", "progress", "energy", "smoothness"] {
+        head.extend([m.to_string(), format!("{m}_lo"), format!("{m}_hi")]);
+    }
+    w.write_record(&head).map_err(bad)?;
+    for r in rows {
+        let (k, n) = r
+            .runs
+            .iter()
+            .fold((0, 0), |(k, n), e| (k + e.successes, n + e.episodes));
+        let mut row = vec![
+            r.variant.to_string(),
+            r.overrides.clone(),
+            r.evaluation.clone(),
+            r.runs.len().to_string(),
+            r.seeds.to_string(),
+            k.to_string(),
+            n.to_string(),
+        ];
+        match &r.pooled {
+            Some(p) => {
+                for e in [p.success, p.metrics[0], p.metrics[1], p.metrics[2]] {
+                    row.extend([e.value, e.lo, e.hi].map(|v| format!("{v:.6}")));
+                }
+            }
+            None => row.extend(std::iter::repeat_n(String::new(), 12)),
+        }
+        w.write_record(&row).map_err(bad)?;
+    }
+    w.into_inner()
+        .map_err(|e| ReportError::Invalid(format!("frontier.csv: {e}")))
+}
+
+/// Writes `frontier.md` and `frontier.csv` into `out`.
+pub fn write(root: &Path, out: &Path) -> Result<()> {
+    let (rows, comparators) = load(root)?;
+    let (md_path, csv_path) = (out.join("frontier.md"), out.join("frontier.csv"));
+    std::fs::write(&md_path, markdown(root, &rows, &comparators))
+        .map_err(ReportError::write(&md_path))?;
+    std::fs::write(&csv_path, csv(&rows)?).map_err(ReportError::write(&csv_path))?;
+    Ok(())
+}

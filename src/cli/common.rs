@@ -51,12 +51,18 @@ pub fn apply_policy_sets(resolved: &mut Resolved, sets: &[String]) -> anyhow::Re
     if !transfer.is_empty() {
         *resolved = resolved.config.with_sets(&transfer)?;
     }
-    apply_run_sets(resolved, &run, "a trained policy")
+    apply_run_sets(resolved, &run, "a trained policy", &TRANSFER_KEYS)
 }
 
 /// Applies `--set` overrides of [`RUN_KEYS`] to a saved configuration (a resumed run, a
-/// trained policy); any other key is an error that says why.
-pub fn apply_run_sets(resolved: &mut Resolved, sets: &[String], what: &str) -> anyhow::Result<()> {
+/// trained policy); any other key is an error that says why, naming the keys `also` that the
+/// caller accepts besides (already applied).
+pub fn apply_run_sets(
+    resolved: &mut Resolved,
+    sets: &[String],
+    what: &str,
+    also: &[&str],
+) -> anyhow::Result<()> {
     for set in sets {
         let (key, value) = set.split_once('=').unwrap_or((set.as_str(), ""));
         let value = value.trim().trim_matches('"');
@@ -84,13 +90,13 @@ pub fn apply_run_sets(resolved: &mut Resolved, sets: &[String], what: &str) -> a
             other => anyhow::bail!(
                 "{what} runs in the configuration saved with it, which `--set {other}=...` would change: drop --config/--set for it (only {} may be set: they change how the step runs, not what it computes{})",
                 RUN_KEYS.join(" and "),
-                if what == "a trained policy" {
+                if also.is_empty() {
+                    String::new()
+                } else {
                     format!(
                         "; and, to test how a policy transfers, the scenario keys {}",
-                        TRANSFER_KEYS.join(", ")
+                        also.join(", ")
                     )
-                } else {
-                    String::new()
                 }
             ),
         }

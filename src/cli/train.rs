@@ -325,7 +325,7 @@ fn open_checkpoint(dir: &Path, args: &TrainArgs) -> anyhow::Result<(PathBuf, Arc
 fn resume_plan(dir: &Path, archive: &Archive, args: &TrainArgs) -> anyhow::Result<Plan> {
     let mut resolved = Config::from_saved(archive.meta("config")?)
         .with_context(|| format!("the configuration saved in {}", archive.path().display()))?;
-    super::common::apply_run_sets(&mut resolved, &args.common.sets, "a resumed run")?;
+    super::common::apply_run_sets(&mut resolved, &args.common.sets, "a resumed run", &[])?;
     let steps = match args.steps {
         Some(s) => s,
         None => archive.meta_parse("steps")?,

@@ -305,12 +305,33 @@ fn rollout_writes_episodes_swarm_and_trajectories() {
         "3",
         "--frames-every",
         "2",
+        "--gap",
         "--out",
         out.to_str().unwrap(),
     ];
     let o = bin(&[&args[..], SMALL_SWARM].concat());
     assert!(o.status.success(), "{}", text(&o));
     let read = |name: &str| std::fs::read_to_string(out.join(name)).unwrap();
+    // gap.csv: steps 0..=2 of the three counted episodes; an episode's last step is skipped
+    // (its environment has reset, so the fields are the next episode's).
+    let gap = read("gap.csv");
+    let rows: Vec<&str> = gap.lines().collect();
+    assert_eq!(
+        rows[0],
+        "env,episode,step,t_s,inlet_u_m_s,x_lo_mm,x_hi_mm,peak_u_m_s,mean_blocked,max_blocked"
+    );
+    assert_eq!(rows.len(), 1 + 3 * 3, "{gap}");
+    assert!(!rows.iter().any(|r| r.starts_with("0,0,3,")), "{gap}");
+    // Two members at x = 14.5 and 15.5 mm, r = 0.25 mm: the extent is 14.25 .. 15.75 mm.
+    assert!(rows[1].starts_with("0,0,0,0.0000,"), "{gap}");
+    let cells: Vec<f64> = rows[1].split(',').map(|c| c.parse().unwrap()).collect();
+    assert_eq!((cells[5], cells[6]), (14.25, 15.75), "{gap}");
+    // Both discs sit at mid-height (y = 1 mm; dy = 0.1 mm, r = 0.25 mm). In a column 0.05 mm
+    // from a centre, the cell centres at y = 0.85 .. 1.15 mm lie inside (0.75 and 1.25 mm lie
+    // 0.255 mm away): 4 of 20 rows. Columns near the extent's edges hold fewer.
+    assert_eq!(cells[9], 0.2, "{gap}");
+    assert!(cells[8] > 0.0 && cells[8] < cells[9], "{gap}");
+    assert!(cells[7].is_finite() && cells[7] > 0.0, "{gap}");
     let episodes = read("episodes.csv");
     let lines: Vec<&str> = episodes.lines().collect();
     assert_eq!(

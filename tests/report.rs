@@ -374,3 +374,101 @@ fn map_writes_its_csvs_and_figures_from_rollout_directories() {
         .unwrap();
     assert!(!o.status.success());
 }
+
+/// A rollout directory with traces and gap.csv whose behaviour numbers are counted by hand:
+/// one successful episode of 400 steps from phase 0 (two complete 1 s cycles of 200 steps).
+/// The inlet is 0.4 m/s at steps 1..=20 of each cycle and 0.008 m/s otherwise (threshold
+/// 0.2), so the intervals starting at steps 0..=20 of a cycle are forward flow (21) and the
+/// other 179 are not. x_COM moves +0.1 mm over each forward interval and -0.02 mm over each
+/// other: D_fwd = 2.1 mm and D_rest = -3.58 mm in both cycles, both ratchet cycles.
+fn behaviour_dir(dir: &Path) {
+    std::fs::create_dir_all(dir).unwrap();
+    let header = "# fluxswarm-gpu 0.1.0 rollout: policy scripted, seed 1, 1 environments, 1 episodes, adapter CPU backend";
+    std::fs::write(dir.join("config.toml"), config_text(header, &[])).unwrap();
+    std::fs::write(
+        dir.join("episodes.csv"),
+        "env,episode,steps,outcome,progress,energy,smoothness,progress_mean,energy_sum,smoothness_sum,scalar_return,final_x_com_mm\n0,0,400,success,1,0.5,0.9,0,0,0,0,19.9\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("starts.csv"),
+        "env,episode,start_phase_s,start_inlet_u_m_s,start_x_com_mm\n0,0,0.000000,0.008,50\n",
+    )
+    .unwrap();
+    let forward = |k: u64| (1..=20).contains(&(k % 200));
+    let (mut swarm, mut gap, mut traj) = (
+        String::from(
+            "env,episode,step,t_s,inlet_u_m_s,x_com_mm,y_com_mm,sigma_x_mm,sigma_y_mm,r_g_mm\n",
+        ),
+        String::from(
+            "env,episode,step,t_s,inlet_u_m_s,x_lo_mm,x_hi_mm,peak_u_m_s,mean_blocked,max_blocked\n",
+        ),
+        String::from("env,episode,step,member,x_mm\n"),
+    );
+    let mut x = 50.0;
+    for k in 0..=400u64 {
+        if k > 0 {
+            x += if forward(k - 1) || forward(k) {
+                0.1
+            } else {
+                -0.02
+            };
+        }
+        let inlet = if forward(k) { 0.4 } else { 0.008 };
+        // sigma_x and R_g: 1 mm, then 2 mm over the last 40 steps (361..=400).
+        let sx = if k >= 361 { 2.0 } else { 1.0 };
+        let sy = if forward(k) { 0.5 } else { 0.3 };
+        let t = 0.005 * k as f64;
+        swarm += &format!("0,0,{k},{t},{inlet},{x},1,{sx},{sy},{sx}\n");
+        if k < 400 {
+            let peak = if forward(k) { 0.6 } else { 0.01 };
+            let max_b = if k == 5 { 0.3 } else { 0.2 };
+            gap += &format!(
+                "0,0,{k},{t},{inlet},{},{},{peak},0.1,{max_b}\n",
+                x - 1.0,
+                x + 1.0
+            );
+        }
+        traj += &format!("0,0,{k},0,{}\n0,0,{k},1,{}\n", x - 0.5, x + 0.5);
+    }
+    std::fs::write(dir.join("swarm.csv"), swarm).unwrap();
+    std::fs::write(dir.join("gap.csv"), gap).unwrap();
+    std::fs::write(dir.join("trajectories.csv"), traj).unwrap();
+}
+
+#[test]
+fn behaviour_measures_the_ratchet_throttling_and_approach() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = tmp.path().join("run");
+    behaviour_dir(&run);
+    let out = tmp.path().join("rep");
+    let o = report(&[
+        "--behaviour",
+        run.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(out.join("behaviour.md")).unwrap();
+    // Episodes 1, successes 1, complete cycles 2, ratchet cycles 2, D_fwd, D_rest.
+    assert!(md.contains("| 1 | 1 | 2 | 2 | 2.100 | -3.580 |"), "{md}");
+    // 40 forward steps: sigma_y 0.5, sigma_x 1; peak 600 mm/s = 1.5 x inlet; blocked.
+    assert!(
+        md.contains("| 40 | 0.500 | 1.000 | 600 | 1.50 | 0.100 | 0.300 |"),
+        "{md}"
+    );
+    // The last 40 steps spread twice as wide as the 361 before.
+    assert!(md.contains("| 1 | 2.00 | 2.00 | 1/1 |"), "{md}");
+    for f in ["ratchet.png", "throttling.png", "approach.png"] {
+        let img = image::open(out.join(f)).unwrap();
+        assert_eq!(img.width(), 1000, "{f}");
+        assert!(md.contains(&format!("![{f}]({f})")), "{f}");
+    }
+    let csv = std::fs::read_to_string(out.join("behaviour.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 2, "{csv}");
+    // A directory without traces is refused with the file named.
+    std::fs::remove_file(run.join("swarm.csv")).unwrap();
+    let o = report(&["--behaviour", run.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("swarm.csv"), "{err}");
+}

@@ -40,6 +40,9 @@ pub struct EvalArgs {
     /// Write only episodes.csv, starts.csv and config.toml (no swarm.csv, trajectories.csv).
     #[arg(long)]
     pub no_traces: bool,
+    /// Also write gap.csv: the flow past the swarm at every step (as `rollout --gap`).
+    #[arg(long, conflicts_with = "no_traces")]
+    pub gap: bool,
     #[arg(long, value_enum, default_value_t = AdapterChoice::Auto)]
     pub adapter: AdapterChoice,
     /// How the step runs: `--set solver.backend=auto|adapter|native` (or
@@ -66,5 +69,6 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         frames_every: args.frames_every,
         gif: args.gif,
         no_traces: args.no_traces,
+        gap: args.gap,
     })
 }

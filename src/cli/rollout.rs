@@ -57,6 +57,10 @@ pub struct RolloutArgs {
     /// for sweeps of many episodes.
     #[arg(long)]
     pub no_traces: bool,
+    /// Also write gap.csv: the flow past the swarm at every step (its x extent, the peak fluid
+    /// u_x there and the blocked fraction of its columns; a field read-back per step).
+    #[arg(long, conflicts_with = "no_traces")]
+    pub gap: bool,
 }
 
 pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
@@ -131,6 +135,7 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
         &out,
         FileOptions {
             traces: !args.no_traces,
+            gap: args.gap,
             frames_every: args.frames_every,
         },
     )?;

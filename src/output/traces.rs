@@ -4,7 +4,10 @@
 //! - `swarm.csv`: one row per environment and control step: time, inlet velocity and the swarm
 //!   metrics (centre, spread and radius of gyration, mm);
 //! - `trajectories.csv`: one row per member and control step: position (mm), velocity (mm/s),
-//!   the action and each force on it (nN).
+//!   the action and each force on it (nN);
+//! - `gap.csv` (`rollout --gap`): one row per environment and control step: the flow past the
+//!   swarm (`crate::sim::gap`): the swarm's x extent (mm), the peak fluid u_x in it (m/s)
+//!   and the mean and largest blocked fraction of its columns.
 
 use std::io::{BufWriter, Write};
 use std::path::Path;
@@ -18,6 +21,10 @@ pub const SWARM_COLUMNS: &str =
     "env,episode,step,t_s,inlet_u_m_s,x_com_mm,y_com_mm,sigma_x_mm,sigma_y_mm,r_g_mm";
 /// The columns of `trajectories.csv`.
 pub const TRAJECTORIES_COLUMNS: &str = "env,episode,step,member,x_mm,y_mm,vx_mm_s,vy_mm_s,ax,ay,f_prop_x_nN,f_prop_y_nN,f_hydro_x_nN,f_hydro_y_nN,f_drag_x_nN,f_drag_y_nN,f_contact_x_nN,f_contact_y_nN";
+
+/// The columns of `gap.csv`.
+pub const GAP_COLUMNS: &str =
+    "env,episode,step,t_s,inlet_u_m_s,x_lo_mm,x_hi_mm,peak_u_m_s,mean_blocked,max_blocked";
 
 type File = BufWriter<std::fs::File>;
 
@@ -146,6 +153,43 @@ impl TrajectoriesCsv {
             )?;
         }
         Ok(())
+    }
+
+    /// Writes what is buffered.
+    pub fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush()
+    }
+}
+
+/// `gap.csv`.
+pub struct GapCsv(File);
+
+impl GapCsv {
+    /// Creates `dir/gap.csv` with its header.
+    pub fn create(dir: &Path) -> std::io::Result<Self> {
+        create(dir, "gap.csv", GAP_COLUMNS).map(Self)
+    }
+
+    /// The flow past one environment's swarm at one step.
+    pub fn write(
+        &mut self,
+        at: RowKey,
+        t_s: f64,
+        inlet_u_m_s: f64,
+        gap: &crate::sim::gap::GapMetrics,
+    ) -> std::io::Result<()> {
+        writeln!(
+            self.0,
+            "{},{},{},{t_s:.4},{inlet_u_m_s:.6},{:.4},{:.4},{:.6},{:.4},{:.4}",
+            at.env,
+            at.episode,
+            at.step,
+            gap.x_lo_m * 1e3,
+            gap.x_hi_m * 1e3,
+            gap.peak_u_m_s,
+            gap.mean_blocked,
+            gap.max_blocked
+        )
     }
 
     /// Writes what is buffered.

@@ -13,6 +13,8 @@
 //! - `com_rg.png`: x_COM and R_g over the episode with the inlet waveform, before vs after.
 
 pub mod analysis;
+pub mod behaviour;
+pub mod behaviour_output;
 pub mod data;
 pub mod error;
 pub mod frontier;

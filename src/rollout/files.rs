@@ -1,7 +1,9 @@
 //! The [`Recorder`] behind `rollout` and `eval`: `episodes.csv`, `starts.csv`, `swarm.csv` and
 //! `trajectories.csv` (SPEC section 7; the schemas are in [`crate::output::episodes`] and
-//! [`crate::output::traces`]) and frames of environment 0
-//! (`frames/env0_ep<episode:04>_s<step:06>.png`).
+//! [`crate::output::traces`]), optionally `gap.csv` (the flow past the swarm,
+//! [`crate::sim::gap`]) and frames of environment 0
+//! (`frames/env0_ep<episode:04>_s<step:06>.png`). Both read the flow fields, which are the next
+//! episode's at an episode's last step (the environment has reset): they skip that step.
 
 use std::path::{Path, PathBuf};
 
@@ -11,13 +13,16 @@ use crate::gpu::params::{GpuMember, GpuMemberDiag};
 use crate::learn::transition::EpisodeSummary;
 use crate::output::episodes::EpisodesCsv;
 use crate::output::frame::{self, MemberMark};
-use crate::output::traces::{self, RowKey, StartsCsv, SwarmCsv, TrajectoriesCsv};
+use crate::output::traces::{self, GapCsv, RowKey, StartsCsv, SwarmCsv, TrajectoriesCsv};
+use crate::sim::gap;
 
 /// What [`RolloutFiles`] writes besides `episodes.csv` and `starts.csv`.
 #[derive(Debug, Clone, Copy)]
 pub struct FileOptions {
     /// Also `swarm.csv` and `trajectories.csv`.
     pub traces: bool,
+    /// Also `gap.csv`: a read-back of each environment's u_x field every step.
+    pub gap: bool,
     /// A frame of environment 0 every K control steps (0: none; needs `frames/` in the
     /// output directory).
     pub frames_every: u64,
@@ -30,6 +35,7 @@ pub struct RolloutFiles {
     episodes: EpisodesCsv,
     starts: StartsCsv,
     traces: Option<(SwarmCsv, TrajectoriesCsv)>,
+    gap: Option<GapCsv>,
 }
 
 fn write_err(what: &str) -> impl FnOnce(std::io::Error) -> RolloutError + '_ {
@@ -56,6 +62,11 @@ impl RolloutFiles {
             episodes: EpisodesCsv::create(out, false).map_err(write_err("episodes.csv"))?,
             starts: StartsCsv::create(out).map_err(write_err("starts.csv"))?,
             traces,
+            gap: if options.gap {
+                Some(GapCsv::create(out).map_err(write_err("gap.csv"))?)
+            } else {
+                None
+            },
         })
     }
 
@@ -66,7 +77,36 @@ impl RolloutFiles {
             swarm.flush().map_err(write_err("swarm.csv"))?;
             traj.flush().map_err(write_err("trajectories.csv"))?;
         }
+        if let Some(gap) = &mut self.gap {
+            gap.flush().map_err(write_err("gap.csv"))?;
+        }
         Ok(())
+    }
+
+    fn gap(&mut self, env: &SwarmEnv, view: &StepView) -> Result<(), RolloutError> {
+        let Some(csv) = &mut self.gap else {
+            return Ok(());
+        };
+        if view.last {
+            return Ok(());
+        }
+        let batch = env.batch();
+        let ux = batch.fields(view.env)?.ux_cells();
+        let centres: Vec<[f64; 2]> = view
+            .members
+            .iter()
+            .map(|m| [m.pos[0] as f64, m.pos[1] as f64])
+            .collect();
+        let c = &env.resolved().config;
+        let metrics = gap::gap_metrics(batch.grid(), &ux, &centres, c.swarm.radius_m);
+        let at = RowKey {
+            env: view.env,
+            episode: view.episode,
+            step: view.step,
+        };
+        let t_s = view.step as f64 * c.time.control_dt_s;
+        csv.write(at, t_s, view.inlet_u_m_s, &metrics)
+            .map_err(write_err("gap.csv"))
     }
 
     fn trace(&mut self, env: &SwarmEnv, view: &StepView) -> Result<(), RolloutError> {
@@ -114,8 +154,10 @@ impl Recorder for RolloutFiles {
             members: &members,
             forces: &vec![GpuMemberDiag::default(); n],
             actions: &vec![[0.0f32; 2]; n],
+            last: false,
         };
         self.trace(env, &view)?;
+        self.gap(env, &view)?;
         if e == 0 && self.options.frames_every > 0 {
             self.frame(env, &view)?;
         }
@@ -124,8 +166,10 @@ impl Recorder for RolloutFiles {
 
     fn step(&mut self, env: &SwarmEnv, view: &StepView) -> Result<(), RolloutError> {
         self.trace(env, view)?;
+        self.gap(env, view)?;
         let every = self.options.frames_every;
-        if view.env == 0 && every > 0 && (view.step as u64).is_multiple_of(every) {
+        let due = every > 0 && (view.step as u64).is_multiple_of(every);
+        if view.env == 0 && due && !view.last {
             self.frame(env, view)?;
         }
         Ok(())

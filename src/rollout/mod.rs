@@ -80,6 +80,9 @@ pub struct StepView<'a> {
     pub forces: &'a [GpuMemberDiag],
     /// The actions `[N]` that led here (zero at a start).
     pub actions: &'a [[f32; 2]],
+    /// The episode ended with this step. The environment has been reset since, so its flow
+    /// fields are already the next episode's: a recorder that reads them skips this step.
+    pub last: bool,
 }
 
 /// What a rollout reports as it goes.
@@ -178,6 +181,7 @@ pub fn run(
                 members: &step.members[e * n..(e + 1) * n],
                 forces: &step.forces[e * n..(e + 1) * n],
                 actions: &actions[e * n..(e + 1) * n],
+                last: step.episodes[e].is_some(),
             };
             recorder.step(env, &view)?;
             if let Some(s) = &step.episodes[e] {

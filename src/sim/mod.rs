@@ -2,11 +2,12 @@
 //! the WGSL kernels ([`GpuBatch`], `fluid`) and the CPU stages ([`CpuBatch`], [`cpu`]), which
 //! are also the reference the kernels are tested against. [`open`](mod@open) picks the backend per
 //! `solver.backend`. Beside them: grid geometry ([`grid`]), the fast Poisson solver's tables
-//! ([`poisson`]) and the per-environment health ([`health`]).
+//! ([`poisson`]), the per-environment health ([`health`]) and the flow past the swarm ([`gap`]).
 
 pub mod batch;
 pub mod cpu;
 pub mod fluid;
+pub mod gap;
 pub mod grid;
 pub mod health;
 pub mod open;

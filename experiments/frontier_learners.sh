@@ -7,15 +7,18 @@
 #
 # FRONTIER_STAGES picks the stages, in this order (default all five):
 # - train: the sweep experiments/sweeps/frontier-learners.toml, one run at a time in the
-#   protocol's seed-major order (seed 1 of variants 0-7, then seed 2, ...). With
-#   FRONTIER_SLURM=1 it writes the Slurm array and submits it instead, every run at once.
+#   protocol's seed-major order (seed 1 of variants 0-7, then seed 2, ...), each run evaluated
+#   (as the eval stage) as soon as it has finished. With FRONTIER_SLURM=1 it writes the Slurm
+#   array and submits it instead, every run at once.
 # - eval: every finished run, 40 episodes at seed 201 on 4 environments, once sampled and once
 #   with the mean action. Output goes to SWEEP_DIR/eval/<run>/{sampled,deterministic}.
 # - comparators: the nine comparators, 40 episodes at seed 201 (frontier_check.sh). Output
 #   goes to SWEEP_DIR/comparators.
-# - neighbours: every finished run, sampled, 40 episodes at seed 201, at flow scale x0.9 and
-#   x1.1 and at F_max x0.75 and x1.25 (`rollout --policy RUN --set`, config::TRANSFER_KEYS).
-#   Output goes to SWEEP_DIR/neighbours/<run>/<change>.
+# - neighbours: the finished runs of the variants named in FRONTIER_NEIGHBOURS (point indices,
+#   e.g. "3"; the protocol names the variant `report --frontier` ranks best once every run is
+#   evaluated), sampled, 40 episodes at seed 201, at flow scale x0.9 and x1.1 and at F_max x0.75
+#   and x1.25 (`rollout --policy RUN --set`, config::TRANSFER_KEYS). Without FRONTIER_NEIGHBOURS
+#   the stage says so and skips. Output goes to SWEEP_DIR/neighbours/<run>/<change>.
 # - report: `report --frontier` into SWEEP_DIR/report (frontier.md, frontier.csv): each
 #   variant's pooled success rate and metrics per evaluation, with bootstrap 95 % intervals
 #   over seeds, the comparators and the goal. It reads whatever has finished so far.
@@ -54,7 +57,9 @@ stage_train() {
             fi
             say "train: task $i (point $p, seed index $s)"
             fluxswarm sweep --task "$i" --out "$S" >>"$S/logs/task$i.log" 2>&1 ||
-                say "train: task $i stopped or failed (see $S/logs/task$i.log)"
+                { say "train: task $i stopped or failed (see $S/logs/task$i.log)"; continue; }
+            fluxswarm sweep --status --out "$S" >/dev/null
+            eval_run "$(awk -F, -v r=$((i + 2)) 'NR == r && $3 == "done" { print $4 }' "$S/sweep.csv")"
         done
     done
 }
@@ -75,12 +80,20 @@ eval_once() {
     rm -f "$dir.log"
 }
 
+# eval_run RUN: the protocol's two evaluations of the finished run RUN (relative to S; none
+# when empty).
+eval_run() {
+    local run=$1
+    [ -n "$run" ] || return 0
+    eval_once "$S/eval/$(basename "$run")/sampled" --checkpoint "$S/$run" || true
+    eval_once "$S/eval/$(basename "$run")/deterministic" --checkpoint "$S/$run" \
+        --deterministic || true
+}
+
 stage_eval() {
     local run
     for run in $(done_runs); do
-        eval_once "$S/eval/$(basename "$run")/sampled" --checkpoint "$S/$run" || true
-        eval_once "$S/eval/$(basename "$run")/deterministic" --checkpoint "$S/$run" \
-            --deterministic || true
+        eval_run "$run"
     done
 }
 
@@ -96,7 +109,14 @@ stage_neighbours() {
         [scale-x0.9]="inlet.scale=0.765" [scale-x1.1]="inlet.scale=0.935"
         [thrust-x0.75]="swarm.max_thrust_n=6.375e-7" [thrust-x1.25]="swarm.max_thrust_n=1.0625e-6"
     )
+    if [ -z "${FRONTIER_NEIGHBOURS:-}" ]; then
+        say "neighbours: skipped; name the variant(s) in FRONTIER_NEIGHBOURS (point indices; the protocol's is the one report --frontier ranks best)"
+        return
+    fi
+    local points=" $FRONTIER_NEIGHBOURS "
     for run in $(done_runs); do
+        # Run directories are named p<point:03>_..., the point index zero-padded.
+        [[ $points == *" $((10#$(basename "$run" | sed -E 's/^p([0-9]+)_.*/\1/'))) "* ]] || continue
         for change in scale-x0.9 scale-x1.1 thrust-x0.75 thrust-x1.25; do
             episodes_once "$S/neighbours/$(basename "$run")/$change" "$K" \
                 --set "${sets[$change]}" --policy "$S/$run" --envs 4 --seed "$SEED" || true

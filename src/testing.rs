@@ -95,16 +95,7 @@ impl MultiAgentEnv for PointMasses {
 
     fn step(&mut self, actions: &[[f32; 2]]) -> Result<Transition, EnvError> {
         let (ne, n) = (self.envs, self.agents);
-        let mut t = Transition {
-            obs: Vec::new(),
-            rewards: vec![0.0; ne * n * 3],
-            terminated: vec![false; ne],
-            truncated: vec![false; ne],
-            diverged: vec![false; ne],
-            final_obs: vec![None; ne],
-            final_global_state: vec![None; ne],
-            episodes: vec![None; ne],
-        };
+        let mut t = Transition::empty(ne, n);
         for e in 0..ne {
             let mut mean = [0.0f64; 3];
             for i in 0..n {

@@ -164,16 +164,8 @@ impl MultiAgentEnv for PhaseClock {
         _actions: &[[f32; 2]],
     ) -> Result<fluxswarm_gpu::learn::env::Transition, fluxswarm_gpu::learn::env::EnvError> {
         let (ne, n) = (self.envs, self.agents);
-        let mut tr = fluxswarm_gpu::learn::env::Transition {
-            obs: vec![0.0; ne * n * 8],
-            rewards: vec![0.0; ne * n * 3],
-            terminated: vec![false; ne],
-            truncated: vec![false; ne],
-            diverged: vec![false; ne],
-            final_obs: vec![None; ne],
-            final_global_state: vec![None; ne],
-            episodes: vec![None; ne],
-        };
+        let mut tr = fluxswarm_gpu::learn::env::Transition::empty(ne, n);
+        tr.obs.resize(ne * n * 8, 0.0);
         for e in 0..ne {
             let r = self.angle(e, self.t[e]).sin() as f32;
             (0..n).for_each(|i| tr.rewards[(e * n + i) * 3] = r);

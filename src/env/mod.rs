@@ -246,21 +246,13 @@ impl SwarmEnv {
         let energy_reward = c.env.energy_reward;
         let n = self.n;
         let mut out = StepOutput {
-            transition: Transition {
-                obs: Vec::with_capacity(self.n_env * n * OBS_DIM),
-                rewards: vec![0.0; self.n_env * n * N_OBJECTIVES],
-                terminated: vec![false; self.n_env],
-                truncated: vec![false; self.n_env],
-                diverged: vec![false; self.n_env],
-                final_obs: vec![None; self.n_env],
-                final_global_state: vec![None; self.n_env],
-                episodes: vec![None; self.n_env],
-            },
+            transition: Transition::empty(self.n_env, n),
             members: Vec::new(),
             forces: Vec::new(),
             episode: vec![0; self.n_env],
             episode_step: vec![0; self.n_env],
         };
+        out.transition.obs.reserve(self.n_env * n * OBS_DIM);
         for e in 0..self.n_env {
             let ms = &members[e * n..(e + 1) * n];
             let fs = &forces[e * n..(e + 1) * n];

@@ -79,3 +79,20 @@ pub struct Transition {
     /// Metrics of each episode that ended this step.
     pub episodes: Vec<Option<EpisodeSummary>>,
 }
+
+impl Transition {
+    /// The step of `envs` environments of `agents` agents where nothing happened yet: zero
+    /// rewards `[E][N][3]`, no episode ended, and no observations (the caller adds them).
+    pub fn empty(envs: usize, agents: usize) -> Self {
+        Self {
+            obs: Vec::new(),
+            rewards: vec![0.0; envs * agents * 3],
+            terminated: vec![false; envs],
+            truncated: vec![false; envs],
+            diverged: vec![false; envs],
+            final_obs: vec![None; envs],
+            final_global_state: vec![None; envs],
+            episodes: vec![None; envs],
+        }
+    }
+}

@@ -22,6 +22,11 @@
 # - report: `report --frontier` into SWEEP_DIR/report (frontier.md, frontier.csv): each
 #   variant's pooled success rate and metrics per evaluation, with bootstrap 95 % intervals
 #   over seeds, the comparators and the goal. It reads whatever has finished so far.
+# - results (not in the default list): copies what has finished into FRONTIER_RESULTS (default
+#   assets/results/frontier_learners), the results to commit: sweep.csv, each done run's
+#   config.toml and training episodes.csv (runs/<run>/), and the config.toml and episodes.csv
+#   of every complete evaluation, neighbour and comparator, in the layout `report --frontier`
+#   reads, then runs the report there (FRONTIER_RESULTS/report). No checkpoint is copied.
 source "$(dirname "$0")/common.sh"
 cd "$ROOT"
 S=${1:-runs/frontier-learners}
@@ -129,11 +134,35 @@ stage_report() {
     say "report: $S/report/frontier.md"
 }
 
+# copy_complete SRC DST: SRC's config.toml and episodes.csv into DST when SRC holds K episodes.
+copy_complete() {
+    local src=$1 dst=$2
+    [ -s "$src/episodes.csv" ] && [ "$(($(wc -l <"$src/episodes.csv") - 1))" -ge "$K" ] || return 0
+    mkdir -p "$dst"
+    cp "$src/config.toml" "$src/episodes.csv" "$dst/"
+}
+
+stage_results() {
+    local R=${FRONTIER_RESULTS:-assets/results/frontier_learners} run d
+    mkdir -p "$R"
+    fluxswarm sweep --status --out "$S" >/dev/null
+    cp "$S/sweep.csv" "$R/sweep.csv"
+    for run in $(done_runs); do
+        mkdir -p "$R/runs/$(basename "$run")"
+        cp "$S/$run/config.toml" "$S/$run/episodes.csv" "$R/runs/$(basename "$run")/"
+    done
+    for d in "$S"/eval/*/* "$S"/neighbours/*/* "$S"/comparators/*; do
+        [ -d "$d" ] && copy_complete "$d" "$R/${d#"$S"/}"
+    done
+    fluxswarm report --frontier "$R" --out "$R/report" >/dev/null
+    say "results: $R (report: $R/report/frontier.md)"
+}
+
 for stage in "${stages[@]}"; do
     case $stage in
-        train | eval | comparators | neighbours | report) "stage_$stage" ;;
+        train | eval | comparators | neighbours | report | results) "stage_$stage" ;;
         *)
-            echo "unknown stage '$stage' (train, eval, comparators, neighbours, report)" >&2
+            echo "unknown stage '$stage' (train, eval, comparators, neighbours, report, results)" >&2
             exit 2
             ;;
     esac

@@ -57,13 +57,14 @@ stage_train() {
     for s in $(seq 0 $((seeds - 1))); do
         for p in $(seq 0 $((runs / seeds - 1))); do
             i=$((p * seeds + s))
-            if [ "$(awk -F, -v r=$((i + 2)) 'NR == r { print $3 }' "$S/sweep.csv")" = done ]; then
-                continue
+            # A run done before (in an earlier session) is evaluated now if it was not yet:
+            # eval_once skips complete evaluations.
+            if [ "$(awk -F, -v r=$((i + 2)) 'NR == r { print $3 }' "$S/sweep.csv")" != done ]; then
+                say "train: task $i (point $p, seed index $s)"
+                fluxswarm sweep --task "$i" --out "$S" >>"$S/logs/task$i.log" 2>&1 ||
+                    { say "train: task $i stopped or failed (see $S/logs/task$i.log)"; continue; }
+                fluxswarm sweep --status --out "$S" >/dev/null
             fi
-            say "train: task $i (point $p, seed index $s)"
-            fluxswarm sweep --task "$i" --out "$S" >>"$S/logs/task$i.log" 2>&1 ||
-                { say "train: task $i stopped or failed (see $S/logs/task$i.log)"; continue; }
-            fluxswarm sweep --status --out "$S" >/dev/null
             eval_run "$(awk -F, -v r=$((i + 2)) 'NR == r && $3 == "done" { print $4 }' "$S/sweep.csv")"
         done
     done
@@ -118,10 +119,13 @@ stage_neighbours() {
         say "neighbours: skipped; name the variant(s) in FRONTIER_NEIGHBOURS (point indices; the protocol's is the one report --frontier ranks best)"
         return
     fi
-    local points=" $FRONTIER_NEIGHBOURS "
+    # Point indices, separated by spaces or commas, without leading zeros.
+    local points=" ${FRONTIER_NEIGHBOURS//,/ } "
+    points=$(sed -E 's/ 0+([0-9])/ \1/g' <<<"$points")
     for run in $(done_runs); do
-        # Run directories are named p<point:03>_..., the point index zero-padded.
-        [[ $points == *" $((10#$(basename "$run" | sed -E 's/^p([0-9]+)_.*/\1/'))) "* ]] || continue
+        # Run directories are named p<point, zero-padded>_...
+        [[ $(basename "$run") =~ ^p0*([0-9]+)_ ]] && [[ $points == *" ${BASH_REMATCH[1]} "* ]] ||
+            continue
         for change in scale-x0.9 scale-x1.1 thrust-x0.75 thrust-x1.25; do
             episodes_once "$S/neighbours/$(basename "$run")/$change" "$K" \
                 --set "${sets[$change]}" --policy "$S/$run" --envs 4 --seed "$SEED" || true

@@ -454,11 +454,11 @@ fn behaviour_measures_the_ratchet_throttling_and_approach() {
     assert!(md.contains("| 1 | 1 | 2 | 2 | 2.100 | -3.580 |"), "{md}");
     // 40 forward steps: sigma_y 0.5, sigma_x 1; peak 600 mm/s = 1.5 x inlet; blocked.
     assert!(
-        md.contains("| 40 | 0.500 | 1.000 | 600 | 1.50 | 0.100 | 0.300 |"),
+        md.contains("| 40 | 40 | 0.500 | 1.000 | 600 | 1.50 | 0.100 | 0.300 |"),
         "{md}"
     );
-    // The last 40 steps spread twice as wide as the 361 before.
-    assert!(md.contains("| 1 | 2.00 | 2.00 | 1/1 |"), "{md}");
+    // The last 40 steps (0.2 s) spread twice as wide as the 361 rows before.
+    assert!(md.contains("| 1 | 40 | 2.00 | 2.00 | 1/1 |"), "{md}");
     for f in ["ratchet.png", "throttling.png", "approach.png"] {
         let img = image::open(out.join(f)).unwrap();
         assert_eq!(img.width(), 1000, "{f}");

@@ -28,6 +28,8 @@ impl Recorder for Log {
     fn step(&mut self, _: &SwarmEnv, v: &StepView) -> Result<(), RolloutError> {
         assert_eq!(v.members.len(), 3);
         assert_eq!(v.actions.len(), 3);
+        // Every episode times out after 4 steps: the 4th is its last.
+        assert_eq!(v.last, v.step == 4, "step {} of env {}", v.step, v.env);
         self.steps
             .entry((v.env, v.episode))
             .or_default()

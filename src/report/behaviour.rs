@@ -12,10 +12,11 @@
 //!   sigma_y, sigma_x and, from `gap.csv`, the peak fluid u_x within the swarm's extent, its
 //!   ratio to the inlet centreline velocity and the blocked fraction.
 //! - **Final approach** (spreading grows near the target): per successful episode of at least
-//!   2 x `APPROACH_STEPS` steps, the mean sigma_x and R_g over its last `APPROACH_STEPS` steps
-//!   divided by their mean over the steps before.
+//!   2 `APPROACH_S`, the mean sigma_x and R_g over its last `APPROACH_S` (in control steps,
+//!   rounded) divided by their mean over the steps before.
 //!
-//! Only finished episodes count (`RolloutRun` drops the rest).
+//! Only finished episodes count (`RolloutRun` drops the rest), and not the diverged ones, whose
+//! last rows hold no finite positions.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -23,8 +24,19 @@ use std::path::Path;
 use super::data::{Csv, RolloutRun, SwarmStep};
 use super::error::{ReportError, Result, Within};
 
-/// Control steps of the final approach (0.2 s at 5 ms).
-pub const APPROACH_STEPS: usize = 40;
+/// The final approach (s): 40 control steps of 5 ms.
+pub const APPROACH_S: f64 = 0.2;
+
+/// `seconds` in control steps of `dt_s` (at least one).
+pub fn steps_in(seconds: f64, dt_s: f64) -> usize {
+    ((seconds / dt_s).round() as usize).max(1)
+}
+
+/// The cycle of the waveform at absolute time `t_s` (the start phase plus the time since the
+/// episode's start): floor(t / T), robust to rounding at the boundaries.
+pub fn cycle_of(t_s: f64, period_s: f64) -> i64 {
+    ((t_s + 1e-9 * period_s) / period_s).floor() as i64
+}
 
 /// The x_COM shifts of one complete cycle of one episode.
 #[derive(Debug, Clone, PartialEq)]
@@ -72,12 +84,15 @@ pub struct GapStep {
 pub struct Throttling {
     /// Forward steps counted.
     pub steps: usize,
+    /// Forward `gap.csv` rows counted (an episode's last step has none).
+    pub gap_steps: usize,
     /// Mean sigma_y (mm).
     pub sigma_y_mm: f64,
     /// Mean sigma_x (mm).
     pub sigma_x_mm: f64,
-    /// From `gap.csv`: mean peak u_x (mm/s), mean peak / inlet centreline, mean blocked
-    /// fraction, largest blocked fraction.
+    /// From `gap.csv`: mean peak u_x (mm/s) and mean peak / inlet centreline (over the rows
+    /// with fluid cells in the swarm's extent), mean blocked fraction and largest blocked
+    /// fraction (over every row).
     pub gap: Option<[f64; 4]>,
 }
 
@@ -112,6 +127,8 @@ pub struct Behaviour {
     pub throttling: Throttling,
     /// The final-approach numbers (None without a long enough success).
     pub approach: Option<Approach>,
+    /// The final approach in control steps (`APPROACH_S` at this directory's control step).
+    pub approach_steps: usize,
 }
 
 /// Each finished episode's swarm rows in step order, by (env, episode).
@@ -141,7 +158,7 @@ pub fn episode_cycles(
     let mut sums: BTreeMap<i64, (f64, f64)> = BTreeMap::new();
     for w in rows.windows(2) {
         let (a, b) = (w[0], w[1]);
-        let cycle = ((phase0 + a.t_s + eps) / period_s).floor() as i64;
+        let cycle = cycle_of(phase0 + a.t_s, period_s);
         let shift = b.x_com_mm - a.x_com_mm;
         let e = sums.entry(cycle).or_default();
         if 0.5 * (a.inlet_u_m_s + b.inlet_u_m_s) > threshold {
@@ -170,18 +187,17 @@ fn mean(values: impl Iterator<Item = f64>) -> f64 {
 /// The throttling numbers of `swarm` and `gap` rows above `threshold` (m/s).
 pub fn throttling(swarm: &[SwarmStep], gap: &[GapStep], threshold: f64) -> Throttling {
     let fwd: Vec<&SwarmStep> = swarm.iter().filter(|s| s.inlet_u_m_s > threshold).collect();
-    let g: Vec<&GapStep> = gap
-        .iter()
-        .filter(|s| s.inlet_u_m_s > threshold && s.peak_u_m_s.is_finite())
-        .collect();
+    let g: Vec<&GapStep> = gap.iter().filter(|s| s.inlet_u_m_s > threshold).collect();
+    let peaks = || g.iter().filter(|s| s.peak_u_m_s.is_finite());
     Throttling {
         steps: fwd.len(),
+        gap_steps: g.len(),
         sigma_y_mm: mean(fwd.iter().map(|s| s.sigma_y_mm)),
         sigma_x_mm: mean(fwd.iter().map(|s| s.sigma_x_mm)),
         gap: (!g.is_empty()).then(|| {
             [
-                mean(g.iter().map(|s| 1e3 * s.peak_u_m_s)),
-                mean(g.iter().map(|s| s.peak_u_m_s / s.inlet_u_m_s)),
+                mean(peaks().map(|s| 1e3 * s.peak_u_m_s)),
+                mean(peaks().map(|s| s.peak_u_m_s / s.inlet_u_m_s)),
                 mean(g.iter().map(|s| s.mean_blocked)),
                 g.iter().map(|s| s.max_blocked).fold(0.0, f64::max),
             ]
@@ -189,20 +205,23 @@ pub fn throttling(swarm: &[SwarmStep], gap: &[GapStep], threshold: f64) -> Throt
     }
 }
 
-/// The final-approach ratios of the successful episodes among `episodes`' rows.
+/// The final-approach ratios of the episodes `successful` among `episodes`' rows: the last
+/// `k` steps against the steps before, for episodes of at least 2k steps (2k + 1 rows: step 0
+/// is the start).
 pub fn approach(
     episodes: &BTreeMap<(usize, u64), Vec<&SwarmStep>>,
     successful: &[(usize, u64)],
+    k: usize,
 ) -> Option<Approach> {
     let mut ratios = Vec::new();
     for key in successful {
         let Some(rows) = episodes.get(key) else {
             continue;
         };
-        if rows.len() < 2 * APPROACH_STEPS {
+        if rows.len() < 2 * k + 1 {
             continue;
         }
-        let (before, last) = rows.split_at(rows.len() - APPROACH_STEPS);
+        let (before, last) = rows.split_at(rows.len() - k);
         let ratio = |f: fn(&SwarmStep) -> f64| {
             mean(last.iter().map(|s| f(s))) / mean(before.iter().map(|s| f(s)))
         };
@@ -216,10 +235,12 @@ pub fn approach(
     })
 }
 
-/// The longest finished episode (ties: the lowest env, then episode): the one drawn.
-pub fn shown_episode(run: &RolloutRun) -> Option<(usize, u64)> {
+/// The longest finished episode with outcome `outcome` (any with None; ties: the lowest env,
+/// then episode): the one drawn.
+pub fn shown_episode(run: &RolloutRun, outcome: Option<&str>) -> Option<(usize, u64)> {
     run.episodes
         .iter()
+        .filter(|e| outcome.is_none_or(|o| e.outcome == o) && e.outcome != "diverged")
         .max_by(|a, b| {
             a.steps
                 .cmp(&b.steps)
@@ -295,15 +316,24 @@ fn read_gap(dir: &Path, keep: &BTreeMap<(usize, u64), f64>) -> Result<Vec<GapSte
 /// measures the three behaviours.
 pub fn load(dir: &Path) -> Result<Behaviour> {
     let within = || format!("{} as a rollout/eval directory with traces", dir.display());
-    let run = RolloutRun::read(dir).within(within)?;
+    let mut run = RolloutRun::read(dir).within(within)?;
+    let diverged: std::collections::HashSet<(usize, u64)> = run
+        .episodes
+        .iter()
+        .filter(|e| e.outcome == "diverged")
+        .map(|e| (e.env, e.episode))
+        .collect();
+    run.swarm
+        .retain(|s| !diverged.contains(&(s.env, s.episode)));
     let period_s = read_period(dir)?;
     let starts = read_starts(dir)?;
     let finished: BTreeMap<(usize, u64), f64> = run
         .episodes
         .iter()
+        .filter(|e| e.outcome != "diverged")
         .filter_map(|e| Some(((e.env, e.episode), *starts.get(&(e.env, e.episode))?)))
         .collect();
-    if finished.len() < run.episodes.len() {
+    if finished.len() < run.episodes.len() - diverged.len() {
         return Err(ReportError::Invalid(format!(
             "{}: starts.csv lacks the start of some finished episodes",
             dir.display()
@@ -312,6 +342,15 @@ pub fn load(dir: &Path) -> Result<Behaviour> {
     let gap = read_gap(dir, &finished)?;
     let threshold_m_s = 0.5 * run.swarm.iter().map(|s| s.inlet_u_m_s).fold(0.0, f64::max);
     let episodes = by_episode(&run.swarm);
+    if let Some(key) = finished.keys().find(|k| !episodes.contains_key(k)) {
+        return Err(ReportError::Invalid(format!(
+            "{}: swarm.csv has no rows of episode {} of environment {}, which episodes.csv \
+             lists (was the rollout killed before it flushed?)",
+            dir.display(),
+            key.1,
+            key.0
+        )));
+    }
     let cycles = episodes
         .iter()
         .flat_map(|(key, rows)| episode_cycles(rows, finished[key], period_s, threshold_m_s))
@@ -323,7 +362,8 @@ pub fn load(dir: &Path) -> Result<Behaviour> {
         .map(|e| (e.env, e.episode))
         .collect();
     let throttling = throttling(&run.swarm, &gap, threshold_m_s);
-    let approach = approach(&episodes, &successful);
+    let k = steps_in(APPROACH_S, run.info.control_dt_s);
+    let approach = approach(&episodes, &successful, k);
     Ok(Behaviour {
         start_phase: finished,
         period_s,
@@ -332,6 +372,7 @@ pub fn load(dir: &Path) -> Result<Behaviour> {
         cycles,
         throttling,
         approach,
+        approach_steps: k,
         run,
     })
 }
@@ -420,32 +461,46 @@ mod tests {
                 mean_blocked: 0.75,
                 max_blocked: 1.0,
             },
+            // Forward, every cell of the extent blocked: no peak, but it counts as blocked.
+            GapStep {
+                env: 0,
+                episode: 0,
+                step: 2,
+                inlet_u_m_s: 0.4,
+                peak_u_m_s: f64::NAN,
+                mean_blocked: 1.0,
+                max_blocked: 1.0,
+            },
         ];
         let t = throttling(&swarm, &gap, 0.2);
-        assert_eq!(t.steps, 1);
+        assert_eq!((t.steps, t.gap_steps), (1, 2));
         assert_eq!((t.sigma_x_mm, t.sigma_y_mm), (1.0, 0.2));
         let g = t.gap.unwrap();
         assert!((g[0] - 600.0).abs() < 1e-9 && (g[1] - 1.5).abs() < 1e-12);
-        assert_eq!((g[2], g[3]), (0.25, 0.5));
+        assert_eq!((g[2], g[3]), (0.625, 1.0));
     }
 
     #[test]
     fn approach_compares_the_last_steps_with_the_ones_before() {
-        let n = 3 * APPROACH_STEPS;
-        // sigma_x 1 mm before the last APPROACH_STEPS, 3 mm in them: ratio 3.
-        let rows: Vec<SwarmStep> = (0..n)
-            .map(|k| {
-                let sx = if k >= n - APPROACH_STEPS { 3.0 } else { 1.0 };
-                row(k as u64, 0.0, 50.0, sx, 0.2)
+        let k = 40;
+        // 2k steps (2k + 1 rows): sigma_x 1 mm before the last k steps, 3 mm in them: ratio 3.
+        let rows: Vec<SwarmStep> = (0..=2 * k)
+            .map(|s| {
+                let sx = if s > k { 3.0 } else { 1.0 };
+                row(s as u64, 0.0, 50.0, sx, 0.2)
             })
             .collect();
         let map = by_episode(&rows);
-        let a = approach(&map, &[(0, 0)]).unwrap();
+        let a = approach(&map, &[(0, 0)], k).unwrap();
         assert_eq!((a.episodes, a.spreading), (1, 1));
         assert!((a.sigma_x_ratio - 3.0).abs() < 1e-12 && (a.r_g_ratio - 3.0).abs() < 1e-12);
-        // A failed episode, or one too short, does not count.
-        assert!(approach(&map, &[]).is_none());
-        let short = by_episode(&rows[..APPROACH_STEPS + 1]);
-        assert!(approach(&short, &[(0, 0)]).is_none());
+        // One step shorter (2k rows) is too short to count.
+        let short = by_episode(&rows[..2 * k]);
+        assert!(approach(&short, &[(0, 0)], k).is_none());
+        // The window in steps follows the control step.
+        assert_eq!(
+            (steps_in(APPROACH_S, 0.005), steps_in(APPROACH_S, 0.02)),
+            (40, 10)
+        );
     }
 }

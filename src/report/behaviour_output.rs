@@ -5,13 +5,13 @@
 //!   the phase, one curve per cycle;
 //! - `throttling.png`: sigma_x and sigma_y against time with the inlet and, with `gap.csv`, the
 //!   peak fluid u_x within the swarm's extent against the inlet centreline velocity;
-//! - `approach.png` (with `trajectories.csv`): every member's x over the episode's last
-//!   second, with the success line.
+//! - `approach.png` (with `trajectories.csv` and a success): every member's x over the last
+//!   second of the subject's longest successful episode, with the success line.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::behaviour::{self, APPROACH_STEPS, Behaviour};
+use super::behaviour::{self, APPROACH_S, Behaviour};
 use super::data::Csv;
 use super::error::{ReportError, Result};
 use super::plot::{self, Curve, Panel, Reference, Secondary};
@@ -26,8 +26,8 @@ const PALETTE: [plotters::style::RGBColor; 7] = [
     plot::GREY,
 ];
 
-/// Control steps shown in `approach.png` (1 s at 5 ms).
-const APPROACH_WINDOW: usize = 200;
+/// The time shown in `approach.png` (s).
+const APPROACH_WINDOW_S: f64 = 1.0;
 
 fn num(v: f64, digits: usize) -> String {
     if v.is_finite() {
@@ -59,8 +59,9 @@ pub fn markdown(list: &[Behaviour], figures: &[String]) -> String {
          forward flow when its mean inlet velocity exceeds half the largest in its directory. \
          A complete cycle is a ratchet cycle when x_COM moves downstream over its forward \
          intervals (D_fwd > 0) and upstream over the rest (D_rest < 0); x grows downstream. \
-         The final approach compares sigma_x and R_g over a success's last {APPROACH_STEPS} \
-         steps with the steps before. Definitions: `src/report/behaviour.rs`.\n\n"
+         The final approach compares sigma_x and R_g over a success's last {APPROACH_S} s \
+         with the steps before. Diverged episodes are left out. Definitions: \
+         `src/report/behaviour.rs`.\n\n"
     );
     md += "| directory | policy | episodes | successes | complete cycles | ratchet cycles | mean D_fwd (mm) | mean D_rest (mm) |\n|---|---|---|---|---|---|---|---|\n";
     for b in list {
@@ -80,7 +81,7 @@ pub fn markdown(list: &[Behaviour], figures: &[String]) -> String {
             num(rest, 3)
         );
     }
-    md += "\n## Throttling (means over forward-flow steps)\n\n| directory | steps | sigma_y (mm) | sigma_x (mm) | peak u_x in the swarm (mm/s) | peak / inlet | mean blocked | largest blocked |\n|---|---|---|---|---|---|---|---|\n";
+    md += "\n## Throttling (means over forward-flow steps)\n\n| directory | steps | gap rows | sigma_y (mm) | sigma_x (mm) | peak u_x in the swarm (mm/s) | peak / inlet | mean blocked | largest blocked |\n|---|---|---|---|---|---|---|---|---|\n";
     for b in list {
         let t = &b.throttling;
         let g = t
@@ -89,17 +90,18 @@ pub fn markdown(list: &[Behaviour], figures: &[String]) -> String {
                 [num(g[0], 0), num(g[1], 2), num(g[2], 3), num(g[3], 3)]
             });
         md += &format!(
-            "| {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} |\n",
             b.run.info.dir.display(),
             t.steps,
+            t.gap_steps,
             num(t.sigma_y_mm, 3),
             num(t.sigma_x_mm, 3),
             g.join(" | ")
         );
     }
     md += &format!(
-        "\n## Final approach (successes of at least {} steps)\n\n| directory | episodes | sigma_x last / before | R_g last / before | spreading (ratio > 1) |\n|---|---|---|---|---|\n",
-        2 * APPROACH_STEPS
+        "\n## Final approach (successes of at least {} s)\n\n| directory | episodes | steps in the last {APPROACH_S} s | sigma_x last / before | R_g last / before | spreading (ratio > 1) |\n|---|---|---|---|---|---|\n",
+        2.0 * APPROACH_S
     );
     for b in list {
         let cells = b.approach.as_ref().map_or(
@@ -113,12 +115,20 @@ pub fn markdown(list: &[Behaviour], figures: &[String]) -> String {
                 ]
             },
         );
-        md += &format!("| {} | {} |\n", b.run.info.dir.display(), cells.join(" | "));
+        md += &format!(
+            "| {} | {} | {} |\n",
+            b.run.info.dir.display(),
+            cells[0],
+            [b.approach_steps.to_string(), cells[1..].join(" | ")].join(" | ")
+        );
     }
-    if let Some((env, episode)) = list.first().and_then(|b| behaviour::shown_episode(&b.run)) {
+    if let Some((env, episode)) = list
+        .first()
+        .and_then(|b| behaviour::shown_episode(&b.run, None))
+    {
         md += &format!(
             "\nFigures: environment {env}, episode {episode} of the first directory (its longest \
-             finished episode).\n\n"
+             finished episode); `approach.png`: its longest successful episode.\n\n"
         );
         for f in figures {
             md += &format!("![{f}]({f})\n");
@@ -130,7 +140,7 @@ pub fn markdown(list: &[Behaviour], figures: &[String]) -> String {
 /// `behaviour.csv`: one row per directory.
 pub fn csv(list: &[Behaviour]) -> String {
     let mut out = String::from(
-        "dir,policy,episodes,successes,cycles,ratchet_cycles,mean_forward_mm,mean_rest_mm,forward_steps,sigma_y_mm,sigma_x_mm,peak_u_mm_s,peak_over_inlet,mean_blocked,max_blocked,approach_episodes,approach_sigma_x_ratio,approach_r_g_ratio\n",
+        "dir,policy,episodes,successes,cycles,ratchet_cycles,mean_forward_mm,mean_rest_mm,forward_steps,gap_steps,sigma_y_mm,sigma_x_mm,peak_u_mm_s,peak_over_inlet,mean_blocked,max_blocked,approach_episodes,approach_sigma_x_ratio,approach_r_g_ratio\n",
     );
     for b in list {
         let (n, r, f, rest) = ratchet_numbers(b);
@@ -144,11 +154,12 @@ pub fn csv(list: &[Behaviour]) -> String {
             .filter(|e| e.outcome == "success")
             .count();
         out += &format!(
-            "{},{},{},{successes},{n},{r},{f:.4},{rest:.4},{},{:.4},{:.4},{:.1},{:.4},{:.4},{:.4},{},{:.4},{:.4}\n",
+            "{},{},{},{successes},{n},{r},{f:.4},{rest:.4},{},{},{:.4},{:.4},{:.1},{:.4},{:.4},{:.4},{},{:.4},{:.4}\n",
             b.run.info.dir.display(),
             b.run.label(),
             b.run.episodes.len(),
             t.steps,
+            t.gap_steps,
             t.sigma_y_mm,
             t.sigma_x_mm,
             g[0],
@@ -202,11 +213,19 @@ fn member_tracks(dir: &Path, env: usize, episode: u64) -> Result<BTreeMap<usize,
 
 /// Draws the subject's figures into `out`; returns their file names.
 fn figures(b: &Behaviour, out: &Path) -> Result<Vec<String>> {
-    let Some(key) = behaviour::shown_episode(&b.run) else {
+    let Some(key) = behaviour::shown_episode(&b.run, None) else {
         return Ok(Vec::new());
     };
     let episodes = behaviour::by_episode(&b.run.swarm);
-    let rows = &episodes[&key];
+    let missing = |key: (usize, u64)| {
+        ReportError::Invalid(format!(
+            "{}: swarm.csv has no rows of episode {} of environment {}",
+            b.run.info.dir.display(),
+            key.1,
+            key.0
+        ))
+    };
+    let rows = episodes.get(&key).ok_or_else(|| missing(key))?;
     let phase0 = b.start_phase[&key];
     let series = |f: fn(&super::data::SwarmStep) -> f64| -> Vec<(f64, f64)> {
         rows.iter().map(|s| (s.t_s, f(s))).collect()
@@ -225,7 +244,7 @@ fn figures(b: &Behaviour, out: &Path) -> Result<Vec<String>> {
     let mut per_cycle: BTreeMap<i64, Vec<(f64, f64)>> = BTreeMap::new();
     for s in rows {
         let abs = phase0 + s.t_s;
-        let cycle = (abs / b.period_s).floor() as i64;
+        let cycle = behaviour::cycle_of(abs, b.period_s);
         per_cycle
             .entry(cycle)
             .or_default()
@@ -294,13 +313,15 @@ fn figures(b: &Behaviour, out: &Path) -> Result<Vec<String>> {
     plot::save(&out.join("throttling.png"), &panels)?;
     names.push("throttling.png".to_string());
 
-    // The final approach.
+    // The final approach, in the longest success.
     let dir = &b.run.info.dir;
-    if dir.join("trajectories.csv").exists() {
+    let success = behaviour::shown_episode(&b.run, Some("success"));
+    if let (true, Some(key)) = (dir.join("trajectories.csv").exists(), success) {
         let tracks = member_tracks(dir, key.0, key.1)?;
+        let rows = episodes.get(&key).ok_or_else(|| missing(key))?;
         let last = rows.last().map_or(0, |s| s.step);
-        let from = last.saturating_sub(APPROACH_WINDOW as u64);
         let dt = b.run.info.control_dt_s;
+        let from = last.saturating_sub(behaviour::steps_in(APPROACH_WINDOW_S, dt) as u64);
         let curves: Vec<Curve> = tracks
             .iter()
             .map(|(m, pts)| {
@@ -313,7 +334,7 @@ fn figures(b: &Behaviour, out: &Path) -> Result<Vec<String>> {
             })
             .collect();
         let mut p = panel(
-            "members over the episode's last second",
+            "members over the last second of the longest successful episode",
             "time since the episode start (s)",
             "x (mm)",
             curves,

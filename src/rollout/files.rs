@@ -229,7 +229,9 @@ pub fn render_frame(
         v_min,
         v_max,
         time_s,
-        inlet_u_m_s: resolved.waveform.at(time_s),
+        // The inlet now: the waveform at the environment's phase (random with
+        // `inlet.random_phase`), not at the time since the episode's start.
+        inlet_u_m_s: env.batch().inlet_u(e),
         env: e,
         members: &marks,
         radius_m: c.swarm.radius_m,

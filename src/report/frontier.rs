@@ -8,7 +8,8 @@
 //! For each variant and evaluation (sampled, deterministic, each neighbour), over the S seeds
 //! evaluated:
 //! - the pooled success rate, sum k / sum n;
-//! - progress, energy and smoothness, the mean over seeds of each run's episode mean;
+//! - progress, energy, smoothness and the episode length (control steps), the mean over seeds
+//!   of each run's episode mean;
 //! - for each, a 95 % percentile bootstrap over seeds: B resamples of the S seeds with
 //!   replacement (SplitMix64, seed 0), with the 2.5th and 97.5th percentiles of the statistic.
 //!
@@ -30,15 +31,16 @@ pub const GOAL: f64 = 0.8;
 /// The bar every constant comparator must stay at or under for the goal to mean anything.
 pub const CONSTANT_BAR: f64 = 0.2;
 
-/// One run's evaluation: its successes and episodes, and its mean progress, energy, smoothness.
+/// One run's evaluation: its successes and episodes, and its mean progress, energy, smoothness
+/// and episode length.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RunEval {
     /// Successful episodes.
     pub successes: usize,
     /// Episodes evaluated.
     pub episodes: usize,
-    /// Mean progress, energy and smoothness over the episodes.
-    pub means: [f64; 3],
+    /// Mean progress, energy, smoothness and episode length (steps) over the episodes.
+    pub means: [f64; METRICS],
 }
 
 /// A statistic with its 95 % bootstrap interval.
@@ -52,21 +54,25 @@ pub struct Estimate {
     pub hi: f64,
 }
 
-/// The pooled success rate and the three metrics over seeds, each with its bootstrap interval.
+/// The metrics averaged over seeds: progress, energy, smoothness, episode length (steps).
+pub const METRICS: usize = 4;
+
+/// The pooled success rate and the metrics over seeds, each with its bootstrap interval.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pooled {
     /// sum k / sum n.
     pub success: Estimate,
-    /// Mean over seeds of progress, energy and smoothness.
-    pub metrics: [Estimate; 3],
+    /// Mean over seeds of progress, energy, smoothness and episode length (steps).
+    pub metrics: [Estimate; METRICS],
 }
 
-fn statistic(runs: &[RunEval], pick: &[usize]) -> [f64; 4] {
+fn statistic(runs: &[RunEval], pick: &[usize]) -> [f64; METRICS + 1] {
     let (k, n) = pick.iter().fold((0, 0), |(k, n), &i| {
         (k + runs[i].successes, n + runs[i].episodes)
     });
-    let mut out = [k as f64 / n.max(1) as f64, 0.0, 0.0, 0.0];
-    for m in 0..3 {
+    let mut out = [0.0; METRICS + 1];
+    out[0] = k as f64 / n.max(1) as f64;
+    for m in 0..METRICS {
         out[m + 1] = pick.iter().map(|&i| runs[i].means[m]).sum::<f64>() / pick.len() as f64;
     }
     out
@@ -88,7 +94,7 @@ pub fn bootstrap(runs: &[RunEval], draws: usize, seed: u64) -> Option<Pooled> {
     let all: Vec<usize> = (0..s).collect();
     let point = statistic(runs, &all);
     let mut rng = Rng::new(seed);
-    let mut samples: [Vec<f64>; 4] = Default::default();
+    let mut samples: [Vec<f64>; METRICS + 1] = Default::default();
     let mut pick = vec![0; s];
     for _ in 0..draws {
         for p in pick.iter_mut() {
@@ -112,7 +118,7 @@ pub fn bootstrap(runs: &[RunEval], draws: usize, seed: u64) -> Option<Pooled> {
         .collect();
     Some(Pooled {
         success: est[0],
-        metrics: [est[1], est[2], est[3]],
+        metrics: [est[1], est[2], est[3], est[4]],
     })
 }
 
@@ -127,9 +133,10 @@ pub fn read_eval(dir: &Path) -> Result<Option<RunEval>> {
         return Ok(None);
     }
     let n = episodes.len() as f64;
-    let mut means = [0.0; 3];
+    let mut means = [0.0; METRICS];
     for e in &episodes {
-        for (m, v) in means.iter_mut().zip(e.metrics) {
+        let values = [e.metrics[0], e.metrics[1], e.metrics[2], e.steps as f64];
+        for (m, v) in means.iter_mut().zip(values) {
             *m += v / n;
         }
     }
@@ -210,6 +217,8 @@ pub struct Comparator {
     pub successes: usize,
     /// Episodes.
     pub episodes: usize,
+    /// Mean episode length (control steps).
+    pub mean_steps: f64,
 }
 
 fn subdirs(dir: &Path) -> Vec<PathBuf> {
@@ -272,6 +281,7 @@ pub fn load(root: &Path) -> Result<(Vec<Row>, Vec<Comparator>)> {
                     .into_owned(),
                 successes: e.successes,
                 episodes: e.episodes,
+                mean_steps: e.means[3],
             });
         }
     }
@@ -307,7 +317,8 @@ mod tests {
         RunEval {
             successes: k,
             episodes: n,
-            means: [progress, 0.5, 0.25],
+            // Every episode of the directories `episodes` writes lasts 10 steps.
+            means: [progress, 0.5, 0.25, 10.0],
         }
     }
 
@@ -359,6 +370,7 @@ mod tests {
             policy: p.into(),
             successes: k,
             episodes: 40,
+            mean_steps: 100.0,
         };
         assert_eq!(constants_under_bar(&[]), None);
         let mut cs = vec![c("zero", 0), c("wall-angle-40", 8), c("scripted", 30)];
@@ -427,6 +439,7 @@ mod tests {
         assert_eq!(p.success.value, 3.0 / 4.0);
         // Seed means 1.0 and 5.0.
         assert_eq!(p.metrics[0].value, 3.0);
+        assert_eq!(p.metrics[3].value, 10.0);
         let b = row(1, "sampled");
         assert_eq!((b.runs.len(), b.seeds), (1, 2));
         assert_eq!(b.overrides, "--steps=8 --no-pcgrad=true");
@@ -441,12 +454,14 @@ mod tests {
                 Comparator {
                     policy: "scripted".into(),
                     successes: 1,
-                    episodes: 1
+                    episodes: 1,
+                    mean_steps: 10.0,
                 },
                 Comparator {
                     policy: "wall-angle-40".into(),
                     successes: 1,
-                    episodes: 2
+                    episodes: 2,
+                    mean_steps: 10.0,
                 },
             ]
         );

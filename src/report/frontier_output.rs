@@ -7,7 +7,8 @@ use std::path::Path;
 
 use super::error::{ReportError, Result};
 use super::frontier::{
-    CONSTANT_BAR, Comparator, DRAWS, Estimate, GOAL, Row, constants_under_bar, load, policy_name,
+    CONSTANT_BAR, Comparator, DRAWS, Estimate, GOAL, METRICS, Row, constants_under_bar, load,
+    policy_name,
 };
 use super::map::is_constant;
 use super::stats::wilson95;
@@ -27,15 +28,15 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator]) -> String
     md += &format!(
         "Per variant and evaluation: the runs evaluated of the variant's seeds; the pooled \
          success rate (sum of successes over sum of episodes); progress, energy and smoothness \
-         as the mean over seeds of each run's mean. Each comes with its 95 % percentile \
+         and the episode length (control steps) as the mean over seeds of each run's mean. Each comes with its 95 % percentile \
          bootstrap interval over seeds ({DRAWS} resamples). A variant meets the goal when its \
          pooled sampled rate is at least {:.0} % and every constant comparator's is at most \
          {:.0} %.\n\n",
         100.0 * GOAL,
         100.0 * CONSTANT_BAR
     );
-    md += "| variant | overrides | evaluation | runs | success | per seed | progress | energy | smoothness |\n";
-    md += "|---|---|---|---|---|---|---|---|---|\n";
+    md += "| variant | overrides | evaluation | runs | success | per seed | progress | energy | smoothness | steps |\n";
+    md += "|---|---|---|---|---|---|---|---|---|---|\n";
     for r in rows {
         let per_seed: Vec<String> = r
             .runs
@@ -58,8 +59,12 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator]) -> String
                     "{:.3} [{:.3}, {:.3}]",
                     p.metrics[2].value, p.metrics[2].lo, p.metrics[2].hi
                 ),
+                format!(
+                    "{:.0} [{:.0}, {:.0}]",
+                    p.metrics[3].value, p.metrics[3].lo, p.metrics[3].hi
+                ),
             ],
-            None => ["-", "-", "-", "-", "-"].map(String::from),
+            None => ["-", "-", "-", "-", "-", "-"].map(String::from),
         };
         md += &format!(
             "| {} | {} | {} | {}/{} | {} |\n",
@@ -71,11 +76,11 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator]) -> String
             cells.join(" | ")
         );
     }
-    md += "\n## Comparators\n\n| policy | constant | success |\n|---|---|---|\n";
+    md += "\n## Comparators\n\n| policy | constant | success | steps |\n|---|---|---|---|\n";
     for c in comparators {
         let (lo, hi) = wilson95(c.successes, c.episodes);
         md += &format!(
-            "| {} | {} | {}/{} = {:.0} % [{:.0}, {:.0}] |\n",
+            "| {} | {} | {}/{} = {:.0} % [{:.0}, {:.0}] | {:.0} |\n",
             policy_name(&c.policy),
             if is_constant(&policy_name(&c.policy)) {
                 "yes"
@@ -86,7 +91,8 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator]) -> String
             c.episodes,
             100.0 * c.successes as f64 / c.episodes.max(1) as f64,
             100.0 * lo,
-            100.0 * hi
+            100.0 * hi,
+            c.mean_steps
         );
     }
     md += "\n## The goal\n\n";
@@ -136,7 +142,7 @@ pub fn csv(rows: &[Row]) -> Result<Vec<u8>> {
     ]
     .map(String::from)
     .to_vec();
-    for m in ["success_rate", "progress", "energy", "smoothness"] {
+    for m in ["success_rate", "progress", "energy", "smoothness", "steps"] {
         head.extend([m.to_string(), format!("{m}_lo"), format!("{m}_hi")]);
     }
     w.write_record(&head).map_err(bad)?;
@@ -156,11 +162,11 @@ pub fn csv(rows: &[Row]) -> Result<Vec<u8>> {
         ];
         match &r.pooled {
             Some(p) => {
-                for e in [p.success, p.metrics[0], p.metrics[1], p.metrics[2]] {
+                for e in std::iter::once(p.success).chain(p.metrics) {
                     row.extend([e.value, e.lo, e.hi].map(|v| format!("{v:.6}")));
                 }
             }
-            None => row.extend(std::iter::repeat_n(String::new(), 12)),
+            None => row.extend(std::iter::repeat_n(String::new(), 3 * (1 + METRICS))),
         }
         w.write_record(&row).map_err(bad)?;
     }

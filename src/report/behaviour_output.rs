@@ -51,6 +51,15 @@ fn ratchet_numbers(b: &Behaviour) -> (usize, usize, f64, f64) {
     (n, ratchet, mean(|c| c.forward_mm), mean(|c| c.rest_mm))
 }
 
+/// The directory's successful episodes.
+fn successes(b: &Behaviour) -> usize {
+    b.run
+        .episodes
+        .iter()
+        .filter(|e| e.outcome == "success")
+        .count()
+}
+
 /// `behaviour.md`.
 pub fn markdown(list: &[Behaviour], figures: &[String]) -> String {
     let mut md = String::from("# Emergent behaviours\n\n");
@@ -66,12 +75,7 @@ pub fn markdown(list: &[Behaviour], figures: &[String]) -> String {
     md += "| directory | policy | episodes | successes | complete cycles | ratchet cycles | mean D_fwd (mm) | mean D_rest (mm) |\n|---|---|---|---|---|---|---|---|\n";
     for b in list {
         let (n, r, f, rest) = ratchet_numbers(b);
-        let successes = b
-            .run
-            .episodes
-            .iter()
-            .filter(|e| e.outcome == "success")
-            .count();
+        let successes = successes(b);
         md += &format!(
             "| {} | {} | {} | {successes} | {n} | {r} | {} | {} |\n",
             b.run.info.dir.display(),
@@ -147,12 +151,7 @@ pub fn csv(list: &[Behaviour]) -> String {
         let t = &b.throttling;
         let g = t.gap.unwrap_or([f64::NAN; 4]);
         let a = b.approach.as_ref();
-        let successes = b
-            .run
-            .episodes
-            .iter()
-            .filter(|e| e.outcome == "success")
-            .count();
+        let successes = successes(b);
         out += &format!(
             "{},{},{},{successes},{n},{r},{f:.4},{rest:.4},{},{},{:.4},{:.4},{:.1},{:.4},{:.4},{:.4},{},{:.4},{:.4}\n",
             b.run.info.dir.display(),

@@ -1,7 +1,7 @@
 //! `frontier.md` and `frontier.csv` of `report --frontier` ([`super::frontier`]): one row per
-//! variant and evaluation (the pooled success rate, progress, energy and smoothness, each with
-//! its 95 % bootstrap interval over seeds, and each seed's successes), the comparators with
-//! their Wilson intervals, and the protocol's goal.
+//! variant and evaluation (the pooled success rate, progress, energy, smoothness and episode
+//! length, each with its 95 % bootstrap interval over seeds, and each seed's successes), the
+//! comparators with their Wilson intervals and episode length, and the protocol's goal.
 
 use std::path::Path;
 
@@ -27,7 +27,7 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator]) -> String
     let mut md = format!("# Learning at the frontier: {}\n\n", root.display());
     md += &format!(
         "Per variant and evaluation: the runs evaluated of the variant's seeds; the pooled \
-         success rate (sum of successes over sum of episodes); progress, energy and smoothness \
+         success rate (sum of successes over sum of episodes); progress, energy, smoothness \
          and the episode length (control steps) as the mean over seeds of each run's mean. Each comes with its 95 % percentile \
          bootstrap interval over seeds ({DRAWS} resamples). A variant meets the goal when its \
          pooled sampled rate is at least {:.0} % and every constant comparator's is at most \

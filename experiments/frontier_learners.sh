@@ -9,9 +9,15 @@
 # - train: the sweep experiments/sweeps/frontier-learners.toml, one run at a time in the
 #   protocol's seed-major order (seed 1 of variants 0-7, then seed 2, ...), each run evaluated
 #   (as the eval stage) as soon as it has finished. With FRONTIER_SLURM=1 it writes the Slurm
-#   array and submits it instead, every run at once.
+#   array and submits it instead, every run at once. With FRONTIER_EVAL=later it leaves the
+#   evaluations to an eval-follow stage running beside it (on two cores: one training run with
+#   two threads, the evaluations with one), so that training never waits for them.
 # - eval: every finished run, 40 episodes at seed 201 on 4 environments, once sampled and once
 #   with the mean action. Output goes to SWEEP_DIR/eval/<run>/{sampled,deterministic}.
+# - eval-follow (not in the default list): the eval stage again every 5 minutes until no run
+#   is left to train or evaluate; the partner of FRONTIER_EVAL=later, e.g.
+#   FRONTIER_STAGES="comparators eval-follow" beside FRONTIER_STAGES=train FRONTIER_EVAL=later.
+#   An evaluation in progress is locked (flock on DIR.lock), so two processes never write one.
 # - comparators: the nine comparators, 40 episodes at seed 201 (frontier_check.sh). Output
 #   goes to SWEEP_DIR/comparators.
 # - neighbours: the finished runs of the variants named in FRONTIER_NEIGHBOURS (point indices,
@@ -65,25 +71,36 @@ stage_train() {
                     { say "train: task $i stopped or failed (see $S/logs/task$i.log)"; continue; }
                 fluxswarm sweep --status --out "$S" >/dev/null
             fi
+            [ "${FRONTIER_EVAL:-now}" = later ] && continue
             eval_run "$(awk -F, -v r=$((i + 2)) 'NR == r && $3 == "done" { print $4 }' "$S/sweep.csv")"
         done
     done
 }
 
+# complete DIR: DIR holds K finished episodes.
+complete() {
+    [ -s "$1/episodes.csv" ] && [ "$(($(wc -l <"$1/episodes.csv") - 1))" -ge "$K" ]
+}
+
 # eval_once DIR ARGS...: `eval ARGS --episodes K --no-traces --out DIR` unless DIR holds K
-# episodes already.
+# episodes already or another process is evaluating it (it holds DIR.lock, a file that stays;
+# the lock is released when the process exits).
 eval_once() {
-    local dir=$1
+    local dir=$1 lock
     shift
-    if [ -s "$dir/episodes.csv" ] && [ "$(($(wc -l <"$dir/episodes.csv") - 1))" -ge "$K" ]; then
-        return
-    fi
-    rm -rf "$dir"
+    complete "$dir" && return
     mkdir -p "$(dirname "$dir")"
+    exec {lock}>"$dir.lock"
+    flock -n "$lock" || { say "eval $dir: another process is on it"; exec {lock}>&-; return 0; }
+    # It may have finished while this process waited to open the lock.
+    complete "$dir" && { exec {lock}>&-; return; }
+    rm -rf "$dir"
     say "eval $dir"
     fluxswarm eval "$@" --envs 4 --episodes "$K" --seed "$SEED" --no-traces --out "$dir" \
-        >/dev/null 2>"$dir.log" || { say "eval $dir failed: $(tail -1 "$dir.log")"; return 1; }
+        >/dev/null 2>"$dir.log" ||
+        { say "eval $dir failed: $(tail -1 "$dir.log")"; exec {lock}>&-; return 1; }
     rm -f "$dir.log"
+    exec {lock}>&-
 }
 
 # eval_run RUN: the protocol's two evaluations of the finished run RUN (relative to S; none
@@ -101,6 +118,23 @@ stage_eval() {
     for run in $(done_runs); do
         eval_run "$run"
     done
+}
+
+# The eval stage again every 5 minutes while runs are left to train (pending or running) or
+# done runs are left to evaluate.
+stage_eval-follow() {
+    local run left
+    while :; do
+        stage_eval
+        left=$(awk -F, 'NR > 1 && ($3 == "pending" || $3 == "running")' "$S/sweep.csv" | wc -l)
+        for run in $(done_runs); do
+            complete "$S/eval/$(basename "$run")/sampled" &&
+                complete "$S/eval/$(basename "$run")/deterministic" || left=$((left + 1))
+        done
+        [ "$left" -gt 0 ] || break
+        sleep 300
+    done
+    say "eval-follow: every run is trained and evaluated"
 }
 
 stage_comparators() {
@@ -164,9 +198,9 @@ stage_results() {
 
 for stage in "${stages[@]}"; do
     case $stage in
-        train | eval | comparators | neighbours | report | results) "stage_$stage" ;;
+        train | eval | eval-follow | comparators | neighbours | report | results) "stage_$stage" ;;
         *)
-            echo "unknown stage '$stage' (train, eval, comparators, neighbours, report, results)" >&2
+            echo "unknown stage '$stage' (train, eval, eval-follow, comparators, neighbours, report, results)" >&2
             exit 2
             ;;
     esac

@@ -80,6 +80,21 @@ fn critic_phase_resume_matches_an_uninterrupted_run() {
     ]);
 }
 
+/// The same with actors that read the inlet phase too (train.actor_phase).
+#[test]
+fn actor_phase_resume_matches_an_uninterrupted_run() {
+    resume_matches_an_uninterrupted_run(&[
+        "--set",
+        "solver.backend=native",
+        "--set",
+        "train.critic_phase=true",
+        "--set",
+        "train.actor_phase=true",
+        "--set",
+        "inlet.random_phase=true",
+    ]);
+}
+
 fn resume_matches_an_uninterrupted_run(extra: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));
@@ -402,9 +417,27 @@ fn eval_and_rollout_run_a_trained_checkpoint() {
 /// `rollout --policy` take it and act as with the checkpoint; `--seed` drives sampling.
 #[test]
 fn a_train_run_writes_its_policy_file_and_eval_runs_it() {
+    policy_file_runs_as_its_checkpoint(&[]);
+}
+
+/// The same for a policy that reads the inlet phase (train.actor_phase): eval and rollout give
+/// its actor each environment's phase.
+#[test]
+fn a_phase_reading_policy_file_runs_as_its_checkpoint() {
+    policy_file_runs_as_its_checkpoint(&[
+        "--set",
+        "train.critic_phase=true",
+        "--set",
+        "train.actor_phase=true",
+        "--set",
+        "inlet.random_phase=true",
+    ]);
+}
+
+fn policy_file_runs_as_its_checkpoint(extra: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let run = dir.path().join("run");
-    let o = bin(&train_args(run.to_str().unwrap(), "16", &[]));
+    let o = bin(&train_args(run.to_str().unwrap(), "16", extra));
     assert!(o.status.success(), "{}", text(&o));
     let policy = run.join("policy.safetensors");
     let archive = Archive::load(&policy).unwrap();

@@ -320,3 +320,17 @@ fn objective_weights_need_the_averaged_gradient_and_sensible_values() {
         fluxswarm_gpu::config::ActionDistribution::Tanh
     );
 }
+
+#[test]
+fn an_actor_that_reads_the_phase_needs_a_critic_that_reads_it() {
+    let m = err(&["train.actor_phase=true"]);
+    assert_contains(&m, &["train.actor_phase", "train.critic_phase = true"]);
+    Config::load(
+        None,
+        &[
+            "train.actor_phase=true".into(),
+            "train.critic_phase=true".into(),
+        ],
+    )
+    .unwrap();
+}

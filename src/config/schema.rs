@@ -73,6 +73,12 @@ pub struct Train {
     /// never see it, so the policy acts on the paper's observations alone.
     #[serde(default)]
     pub critic_phase: bool,
+    /// Give the actors the inlet phase too, after each member's observation (the policy reads
+    /// `[8 + 2]` inputs): a policy that knows the phase, privileged like the `scripted`
+    /// controller and to be compared with it on equal information. Needs `critic_phase`, so
+    /// that the critic sees at least what the actors see.
+    #[serde(default)]
+    pub actor_phase: bool,
 }
 
 /// The policy's action distribution (`train.action_distribution`).

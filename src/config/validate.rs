@@ -83,6 +83,14 @@ impl Config {
                     .into(),
             });
         }
+        if tr.actor_phase && !tr.critic_phase {
+            return Err(ConfigError::Range {
+                key: "train.actor_phase".into(),
+                value: "true".into(),
+                message: "gives the actors the inlet phase, so the centralised critic must read                           it too: set train.critic_phase = true as well"
+                    .into(),
+            });
+        }
         positive("train.learning_rate", tr.learning_rate)?;
         positive("train.clip", tr.clip)?;
         positive("train.max_grad_norm", tr.max_grad_norm)?;

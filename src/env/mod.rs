@@ -22,6 +22,10 @@ use crate::sim::{FlowBatch, SimError};
 
 /// Values per observation, per reward.
 pub const OBS_DIM: usize = 8;
+/// Length of an environment's global state ([`SwarmEnv::phase_features`]): the inlet phase as
+/// (sin 2 pi phi, cos 2 pi phi), read by the critic with `train.critic_phase` and by the actors
+/// with `train.actor_phase`.
+pub const GLOBAL_DIM: usize = 2;
 /// Reward objectives per agent: progress, energy, smoothness.
 pub const N_OBJECTIVES: usize = 3;
 /// Pressure scale of the observation (Pa).
@@ -376,7 +380,7 @@ impl crate::learn::env::MultiAgentEnv for SwarmEnv {
     }
 
     fn global_state_dim(&self) -> usize {
-        2
+        GLOBAL_DIM
     }
     fn global_state(&self) -> Vec<f32> {
         (0..self.n_env)

@@ -48,6 +48,13 @@ pub enum LearnError {
         /// What the environment gave per environment.
         have: usize,
     },
+    /// `train.actor_phase` on a learner made without a global state.
+    #[error(
+        "train.actor_phase gives the actor the environment's global state, but the learner was \
+         made without one: make it with the environment's `global_state_dim()` \
+         (train.critic_phase = true)"
+    )]
+    ActorPhase,
     /// The environment the learner drives failed.
     #[error(transparent)]
     Env(EnvError),

@@ -9,7 +9,8 @@ use super::RolloutError;
 use crate::checkpoint::{self, Archive};
 use crate::config::{Config, Resolved};
 use crate::env::policy::Controller;
-use crate::env::{OBS_DIM, SwarmEnv};
+use crate::env::{GLOBAL_DIM, OBS_DIM, SwarmEnv};
+use crate::learn::env::MultiAgentEnv;
 use crate::learn::mappo::Learner;
 use crate::rng::Rng;
 
@@ -60,7 +61,10 @@ impl Policy {
             }
         })?;
         let agents = resolved.config.swarm.count as usize;
-        let mut learner = Learner::new(agents, OBS_DIM, resolved.config.train.clone(), seed)?;
+        let train = resolved.config.train.clone();
+        // An actor that reads the inlet phase (train.actor_phase) is made with its width.
+        let global = if train.actor_phase { GLOBAL_DIM } else { 0 };
+        let mut learner = Learner::with_global_state(agents, OBS_DIM, global, train, seed)?;
         learner.load_policy(&archive)?;
         log::info!("policy: {}", file.display());
         let policy = Policy::Trained {
@@ -82,7 +86,13 @@ impl Policy {
                 learner,
                 deterministic,
             } => {
-                let raw = learner.act(&learner.normalize(obs), *deterministic)?.0;
+                let global = match learner.actor_reads_global() {
+                    true => MultiAgentEnv::global_state(env),
+                    false => Vec::new(),
+                };
+                let raw = learner
+                    .act(&learner.normalize(obs), &global, *deterministic)?
+                    .0;
                 learner.applied(&raw)
             }
             Policy::Custom(act) => act(obs, env),

@@ -97,6 +97,9 @@ pub struct Learner {
     /// Global-state inputs G of the critic after the joint observations (0 unless the learner
     /// was made by [`Learner::with_global_state`]).
     global_dim: usize,
+    /// Global-state inputs of the actor after each agent's observation: G with
+    /// `train.actor_phase`, else 0.
+    actor_global: usize,
     map: VarMap,
     /// candle's actor on the same variables: the reference the tests hold the hand-written
     /// passes to (training never runs it).
@@ -140,6 +143,30 @@ fn joint_states<'a>(
     for (row, state) in x.chunks_exact(joint).zip(global.chunks_exact(g)) {
         out.extend_from_slice(row);
         out.extend_from_slice(state);
+    }
+    std::borrow::Cow::Owned(out)
+}
+
+/// The actor's inputs `[E][N][D + G]`: each agent's row of `x` `[E][N][D]`, then its
+/// environment's global state `global` `[E][G]` (borrowed as it is when G = 0).
+fn agent_inputs<'a>(
+    x: &'a [f32],
+    d: usize,
+    agents: usize,
+    global: &[f32],
+    g: usize,
+) -> std::borrow::Cow<'a, [f32]> {
+    if g == 0 {
+        return std::borrow::Cow::Borrowed(x);
+    }
+    let envs = x.len() / (agents * d);
+    assert_eq!(global.len(), envs * g, "one global state per environment");
+    let mut out = Vec::with_capacity(envs * agents * (d + g));
+    for (rows, state) in x.chunks_exact(agents * d).zip(global.chunks_exact(g)) {
+        for row in rows.chunks_exact(d) {
+            out.extend_from_slice(row);
+            out.extend_from_slice(state);
+        }
     }
     std::borrow::Cow::Owned(out)
 }
@@ -211,7 +238,8 @@ impl Learner {
 
     /// As [`Self::new`], with a critic that also reads `global_dim` inputs of the environment's
     /// global state ([`MultiAgentEnv::global_state`]) after the joint observations; the
-    /// environment it iterates must offer exactly that many. The actor is unchanged.
+    /// environment it iterates must offer exactly that many. With `cfg.actor_phase` the actor
+    /// reads them too, after each agent's observation (`global_dim` must then be above 0).
     pub fn with_global_state(
         agents: usize,
         obs_dim: usize,
@@ -219,17 +247,21 @@ impl Learner {
         cfg: TrainConfig,
         seed: u64,
     ) -> Result<Self, LearnError> {
+        if cfg.actor_phase && global_dim == 0 {
+            return Err(LearnError::ActorPhase);
+        }
+        let actor_global = if cfg.actor_phase { global_dim } else { 0 };
         let dev = Device::Cpu;
         let map = VarMap::new();
         let vb = VarBuilder::from_varmap(&map, DType::F32, &dev);
-        let _actor = Actor::new(vb.pp("actor"), obs_dim, 2)?;
+        let _actor = Actor::new(vb.pp("actor"), obs_dim + actor_global, 2)?;
         // candle's critic only creates its variables (the checkpoints' names and shapes).
         Critic::new(vb.pp("critic"), agents, obs_dim, global_dim)?;
         let mut rng = Rng::new(seed);
         seed_parameters(&map, &mut rng)?;
         let actor_vars = named_vars(&map, "actor");
         let critic_vars = named_vars(&map, "critic");
-        let actor_layout = mlp::actor::layout(obs_dim, 2);
+        let actor_layout = mlp::actor::layout(obs_dim + actor_global, 2);
         let critic_layout = mlp::critic::layout(agents, obs_dim, global_dim);
         for (tag, layout, vars) in [
             ("actor", &actor_layout, &actor_vars),
@@ -264,6 +296,7 @@ impl Learner {
             agents,
             obs_dim,
             global_dim,
+            actor_global,
             map,
             #[cfg(test)]
             actor: _actor,
@@ -474,6 +507,81 @@ mod tests {
             .unwrap()
             .load_state(&phased_archive)
             .unwrap();
+    }
+
+    #[test]
+    fn agent_inputs_append_each_environments_state_to_its_agents_rows() {
+        // E = 2 environments of N = 2 agents, D = 3 observations, G = 2.
+        let x: Vec<f32> = (0..12).map(|v| v as f32).collect();
+        let g = [10.0, 11.0, 20.0, 21.0];
+        let rows = agent_inputs(&x, 3, 2, &g, 2);
+        assert_eq!(
+            rows.as_ref(),
+            [
+                0.0, 1.0, 2.0, 10.0, 11.0, 3.0, 4.0, 5.0, 10.0, 11.0, 6.0, 7.0, 8.0, 20.0, 21.0,
+                9.0, 10.0, 11.0, 20.0, 21.0
+            ]
+        );
+        assert!(matches!(
+            agent_inputs(&x, 3, 2, &[], 0),
+            std::borrow::Cow::Borrowed(_)
+        ));
+    }
+
+    #[test]
+    fn an_actor_that_reads_the_phase_acts_on_it_and_a_blind_one_does_not() {
+        let phased_cfg = TrainConfig {
+            critic_phase: true,
+            actor_phase: true,
+            ..small_cfg()
+        };
+        let e = Learner::new(2, 8, phased_cfg.clone(), 4)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("train.actor_phase") && e.contains("global_state_dim"),
+            "{e}"
+        );
+        let mut phased = Learner::with_global_state(2, 8, 2, phased_cfg, 4).unwrap();
+        assert!(phased.actor_reads_global());
+        let l1 = phased.actor_layout.params()[3].clone();
+        assert_eq!(l1.1, vec![crate::learn::nets::HIDDEN, 10], "{l1:?}");
+        // Two environments with the same observations and different phases.
+        let obs: Vec<f32> = (0..16).map(|v| (v as f32 * 0.37).sin()).collect();
+        let obs = [obs.clone(), obs].concat();
+        let phases = [0.0, 1.0, 1.0, 0.0];
+        let (a, _) = phased.act(&obs, &phases, true).unwrap();
+        assert_ne!(a[..2], a[2..], "the phase moves the mean action");
+        // The mean action is the actor's mean on [o_i, sin, cos], by candle's actor.
+        let dev = Device::Cpu;
+        let row: Vec<f32> = [&obs[8..16], &phases[..2]].concat();
+        let pass = phased
+            .actor
+            .forward_pass(&Tensor::from_slice(&row, (1, 10), &dev).unwrap())
+            .unwrap();
+        let want: Vec<f32> = pass.mean.flatten_all().unwrap().to_vec1().unwrap();
+        assert!((a[1][0] - want[0]).abs() < 1e-5 && (a[1][1] - want[1]).abs() < 1e-5);
+        // A wrong global-state length is refused.
+        let e = phased
+            .act(&obs, &phases[..2], true)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("global-state inputs"), "{e}");
+        // The phase-blind actor ignores the global state (its critic reads it).
+        let mut blind = Learner::with_global_state(2, 8, 2, small_cfg(), 4).unwrap();
+        assert!(!blind.actor_reads_global());
+        let (b, _) = blind.act(&obs, &[], true).unwrap();
+        assert_eq!(b[..2], b[2..]);
+        // Neither loads the other's policy.
+        let mut archive = Archive::new();
+        blind.save_policy(&mut archive).unwrap();
+        let e = phased.load_policy(&archive).unwrap_err().to_string();
+        assert!(e.contains("train.actor_phase = false"), "{e}");
+        let mut archive = Archive::new();
+        phased.save_state(&mut archive).unwrap();
+        let e = blind.load_state(&archive).unwrap_err().to_string();
+        assert!(e.contains("its actor read 2 global-state inputs"), "{e}");
     }
 
     #[test]

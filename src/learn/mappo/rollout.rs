@@ -6,25 +6,38 @@ use super::*;
 
 impl Learner {
     /// Sampled (or mean) raw actions `[E][N]` and joint log-probabilities `[E]` for network inputs
-    /// `[E][N][D]` (observations passed through [`Self::normalize`]). The environment receives
-    /// [`Self::applied`] of the raw actions; the log-probabilities are those of the applied
-    /// actions (with the tanh policy's change-of-variables term).
+    /// `[E][N][D]` (observations passed through [`Self::normalize`]) and the environments'
+    /// global states `[E][G]` (read only with `train.actor_phase`; pass `&[]` otherwise, see
+    /// [`Self::actor_reads_global`]). The environment receives [`Self::applied`] of the raw
+    /// actions; the log-probabilities are those of the applied actions (with the tanh policy's
+    /// change-of-variables term).
     pub fn act(
         &mut self,
         obs: &[f32],
+        global: &[f32],
         deterministic: bool,
     ) -> Result<(Vec<[f32; 2]>, Vec<f32>), LearnError> {
         let pool = self.pool.clone();
-        pool.install(|| self.act_serial(obs, deterministic))
+        pool.install(|| self.act_serial(obs, global, deterministic))
+    }
+
+    /// Whether [`Self::act`] reads the global state (`train.actor_phase`).
+    pub fn actor_reads_global(&self) -> bool {
+        self.actor_global > 0
     }
 
     pub(super) fn act_serial(
         &mut self,
         obs: &[f32],
+        global: &[f32],
         deterministic: bool,
     ) -> Result<(Vec<[f32; 2]>, Vec<f32>), LearnError> {
         let rows = obs.len() / self.obs_dim;
-        let acts = mlp::actor::forward(&self.actor_layout, &self.actor_p, obs, rows);
+        if self.actor_global > 0 {
+            self.check_global(global, rows / self.agents)?;
+        }
+        let x = agent_inputs(obs, self.obs_dim, self.agents, global, self.actor_global);
+        let acts = mlp::actor::forward(&self.actor_layout, &self.actor_p, &x, rows);
         let (m, log_std) = (&acts.mean, &acts.log_std);
         let s: Vec<f32> = log_std.iter().map(|x| x.exp()).collect();
         let mut actions = Vec::with_capacity(rows);
@@ -127,8 +140,8 @@ impl Learner {
                 norm.update(obs);
             }
             let x = self.normalize(obs);
-            let (actions, logp) = self.act(&x, false)?;
             let global = self.global_state_of(env)?;
+            let (actions, logp) = self.act(&x, &global, false)?;
             let v = self.values(&x, &global)?;
             if t > 0 {
                 // V(s_t) bootstraps step t-1 where that episode went on.

@@ -19,6 +19,7 @@ impl Learner {
         archive.put_u64("learner.rng", &[self.rng.0]);
         archive.put_u64("learner.shape", &[self.agents as u64, self.obs_dim as u64]);
         archive.put_u64("learner.global_dim", &[self.global_dim as u64]);
+        archive.put_u64("learner.actor_global", &[self.actor_global as u64]);
         Ok(())
     }
 
@@ -76,6 +77,7 @@ impl Learner {
         self.put_params(archive, "actor")?;
         self.put_normalizer(archive);
         archive.put_u64("learner.shape", &[self.agents as u64, self.obs_dim as u64]);
+        archive.put_u64("learner.actor_global", &[self.actor_global as u64]);
         Ok(())
     }
 
@@ -112,7 +114,8 @@ impl Learner {
         })
     }
 
-    /// The archive was written for this learner's agents, observation size and normalisation.
+    /// The archive was written for this learner's agents, observation size, actor inputs and
+    /// normalisation.
     fn check_fits(&self, archive: &Archive) -> Result<(), LearnError> {
         let shape = archive.u64("learner.shape", Some(2))?;
         if shape != [self.agents as u64, self.obs_dim as u64] {
@@ -120,6 +123,22 @@ impl Learner {
                 .mismatch(format!(
                     "it was trained with {} agents and {} observations each, this run has {} and {}",
                     shape[0], shape[1], self.agents, self.obs_dim
+                ))
+                .into());
+        }
+        // Files written before the actor could read a global state have none.
+        let actor_global = match archive.shape("learner.actor_global") {
+            Some(_) => archive.u64("learner.actor_global", Some(1))?[0] as usize,
+            None => 0,
+        };
+        if actor_global != self.actor_global {
+            return Err(archive
+                .mismatch(format!(
+                    "its actor read {actor_global} global-state inputs (train.actor_phase = {}), \
+                     this run's reads {} (train.actor_phase = {})",
+                    actor_global > 0,
+                    self.actor_global,
+                    self.actor_global > 0
                 ))
                 .into());
         }

@@ -124,7 +124,9 @@ impl Learner {
                     .iter()
                     .flat_map(|&s| actions[s * n..(s + 1) * n].concat())
                     .collect();
-                let acts = mlp::actor::forward(&self.actor_layout, &self.actor_p, &x, b * n);
+                let global_b = gather(global, self.global_dim);
+                let xa = agent_inputs(&x, d, n, &global_b, self.actor_global);
+                let acts = mlp::actor::forward(&self.actor_layout, &self.actor_p, &xa, b * n);
                 let mut lp_new = mlp::actor::joint_log_prob(&a_flat, &acts.mean, &acts.log_std, n);
                 // The tanh term depends on the raw sample only: it cancels in the ratio.
                 squash::correct_log_prob(self.cfg.action_distribution, &a_flat, n, &mut lp_new);
@@ -171,7 +173,7 @@ impl Learner {
 
                 // The joint states are the same rows, [b, n d], then their global states [b, g].
                 let g = self.global_dim;
-                let state = joint_states(&x, n * d, &gather(global, g), g);
+                let state = joint_states(&x, n * d, &global_b, g);
                 let c = mlp::critic::forward(&self.critic_layout, &self.critic_p, &state, b);
                 let (value_loss, gc) = mlp::critic::value_loss_grad(
                     &self.critic_layout,

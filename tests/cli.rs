@@ -305,6 +305,11 @@ fn rollout_writes_episodes_swarm_and_trajectories() {
         "3",
         "--frames-every",
         "2",
+        "--gif",
+        "--gif-episode",
+        "0",
+        "--gif-steps",
+        "2:10",
         "--gap",
         "--out",
         out.to_str().unwrap(),
@@ -390,6 +395,42 @@ fn rollout_writes_episodes_swarm_and_trajectories() {
     ] {
         assert!(out.join("frames").join(name).exists(), "{name}");
     }
+    // The GIF holds the one frame of episode 0 in steps [2, 10): step 2.
+    let f = std::fs::File::open(out.join("animation.gif")).unwrap();
+    let dec = image::codecs::gif::GifDecoder::new(std::io::BufReader::new(f)).unwrap();
+    use image::AnimationDecoder;
+    assert_eq!(dec.into_frames().count(), 1);
+    // A window without frames, or a bad one, fails and says why.
+    for (window, says) in [
+        (["--gif-steps", "4:2"], "START:END"),
+        (["--gif-episode", "9"], "no frame of"),
+    ] {
+        let out = dir.path().join("empty");
+        let args = [
+            "rollout",
+            "--policy",
+            "zero",
+            "--frames-every",
+            "1",
+            "--gif",
+            window[0],
+            window[1],
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        let o = bin(&[&args[..], SMALL_SWARM].concat());
+        assert!(
+            !o.status.success() && text(&o).contains(says),
+            "{}",
+            text(&o)
+        );
+    }
+    let o = bin(&["rollout", "--policy", "zero", "--gif-episode", "0"]);
+    assert!(
+        !o.status.success() && text(&o).contains("--gif"),
+        "{}",
+        text(&o)
+    );
 }
 
 #[test]

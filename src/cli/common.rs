@@ -21,10 +21,24 @@ pub struct ConfigArgs {
     pub adapter: AdapterChoice,
 }
 
-/// Writes `out/animation.gif` from the frames in `out/frames` whose names start with `prefix`.
-pub fn write_gif(out: &std::path::Path, prefix: &str) -> anyhow::Result<()> {
+/// Writes `out/animation.gif` from the frames in `out/frames` whose names start with `prefix`
+/// and lie in `window`.
+pub fn write_gif(
+    out: &std::path::Path,
+    prefix: &str,
+    window: fluxswarm_gpu::output::gif::Window,
+) -> anyhow::Result<()> {
     use fluxswarm_gpu::output::gif;
-    let frames = gif::frames_in(&out.join("frames"), prefix);
+    let mut frames = gif::frames_in(&out.join("frames"), prefix);
+    let all = frames.len();
+    frames.retain(|f| window.holds(f));
+    if all > 0 && frames.is_empty() {
+        anyhow::bail!(
+            "no frame of {} lies in --gif-episode / --gif-steps ({window:?}): the frames are \
+             env0_ep<episode>_s<step>.png; widen the window or write frames more often",
+            out.join("frames").display()
+        );
+    }
     let path = out.join("animation.gif");
     gif::write(&frames, &path, gif::README_WIDTH, 80)?;
     log::info!("{} frames -> {}", frames.len(), path.display());

@@ -37,6 +37,12 @@ pub struct EvalArgs {
     /// Also write `animation.gif` of the frames (needs --frames-every).
     #[arg(long)]
     pub gif: bool,
+    /// Animate only environment 0's episode K (0: its first; default all).
+    #[arg(long, value_name = "K", requires = "gif")]
+    pub gif_episode: Option<u64>,
+    /// Animate only the control steps [START, END) of each animated episode.
+    #[arg(long, value_name = "START:END", requires = "gif", value_parser = rollout::parse_gif_steps)]
+    pub gif_steps: Option<(u64, u64)>,
     /// Write only episodes.csv, starts.csv and config.toml (no swarm.csv, trajectories.csv).
     #[arg(long)]
     pub no_traces: bool,
@@ -68,6 +74,8 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         out: Some(args.out.unwrap_or_else(|| run_dir::default_dir("eval"))),
         frames_every: args.frames_every,
         gif: args.gif,
+        gif_episode: args.gif_episode,
+        gif_steps: args.gif_steps,
         no_traces: args.no_traces,
         gap: args.gap,
     })

@@ -53,6 +53,12 @@ pub struct RolloutArgs {
     /// Also write `animation.gif` of the frames (needs --frames-every).
     #[arg(long)]
     pub gif: bool,
+    /// Animate only environment 0's episode K (0: its first; default all).
+    #[arg(long, value_name = "K", requires = "gif")]
+    pub gif_episode: Option<u64>,
+    /// Animate only the control steps [START, END) of each animated episode.
+    #[arg(long, value_name = "START:END", requires = "gif", value_parser = parse_gif_steps)]
+    pub gif_steps: Option<(u64, u64)>,
     /// Write only episodes.csv, starts.csv and config.toml (no swarm.csv, trajectories.csv):
     /// for sweeps of many episodes.
     #[arg(long)]
@@ -61,6 +67,11 @@ pub struct RolloutArgs {
     /// u_x there and the blocked fraction of its columns; a field read-back per step).
     #[arg(long, conflicts_with = "no_traces")]
     pub gap: bool,
+}
+
+/// `--gif-steps START:END`.
+pub fn parse_gif_steps(text: &str) -> Result<(u64, u64), String> {
+    fluxswarm_gpu::output::gif::Window::parse_steps(text)
 }
 
 pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
@@ -173,7 +184,11 @@ pub fn run(args: RolloutArgs) -> anyhow::Result<()> {
         return Err(super::signals::Stopped::new(signal, &what, &out).into());
     }
     if args.gif {
-        super::common::write_gif(&out, "env0_")?;
+        let window = fluxswarm_gpu::output::gif::Window {
+            episode: args.gif_episode,
+            steps: args.gif_steps,
+        };
+        super::common::write_gif(&out, "env0_", window)?;
     }
     println!("{}", out.display());
     Ok(())

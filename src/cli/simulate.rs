@@ -139,7 +139,7 @@ pub fn run(mut args: SimulateArgs) -> anyhow::Result<()> {
         return Err(super::signals::Stopped::new(signal, &what, &out).into());
     }
     if args.gif {
-        super::common::write_gif(&out, &format!("env{}_s", args.env))?;
+        super::common::write_gif(&out, &format!("env{}_s", args.env), Default::default())?;
     }
     println!("{}", out.display());
     Ok(())

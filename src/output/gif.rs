@@ -1,6 +1,8 @@
 //! Animated GIFs of a run's frames (`--gif` on simulate, rollout and eval): the PNG frames in
 //! name order (step order, as the names carry zero-padded steps), scaled down to at most
-//! `max_width` pixels wide for a README, each shown `delay_ms`, looping forever.
+//! `max_width` pixels wide for a README, each shown `delay_ms`, looping forever. A [`Window`]
+//! keeps the frames of one episode and a range of its control steps (rollout and eval name
+//! their frames `env<e>_ep<episode:04>_s<step:06>.png`).
 
 use std::path::{Path, PathBuf};
 
@@ -32,6 +34,53 @@ pub enum GifError {
         /// The error creating or encoding it.
         source: image::ImageError,
     },
+}
+
+/// Which rollout frames go into a GIF: those of episode `episode` (all when `None`) whose
+/// control step lies in `steps` = [start, end) (all when `None`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Window {
+    /// The episode of environment 0 (0 is its first).
+    pub episode: Option<u64>,
+    /// Control steps [start, end) within each episode.
+    pub steps: Option<(u64, u64)>,
+}
+
+impl Window {
+    /// Parses `START:END` (control steps, END above START) for [`Window::steps`].
+    pub fn parse_steps(text: &str) -> Result<(u64, u64), String> {
+        let bad = || format!("--gif-steps {text}: give START:END, control steps with END > START");
+        let (a, b) = text.split_once(':').ok_or_else(bad)?;
+        let (a, b) = (
+            a.trim().parse::<u64>().map_err(|_| bad())?,
+            b.trim().parse::<u64>().map_err(|_| bad())?,
+        );
+        if b <= a {
+            return Err(bad());
+        }
+        Ok((a, b))
+    }
+
+    /// Whether the frame file `path` (named `..._ep<episode>_s<step>.png`) lies in the window;
+    /// a name without episode and step lies in it only when the window is everything.
+    pub fn holds(&self, path: &Path) -> bool {
+        if *self == Window::default() {
+            return true;
+        }
+        let Some((episode, step)) = episode_and_step(path) else {
+            return false;
+        };
+        self.episode.is_none_or(|e| e == episode)
+            && self.steps.is_none_or(|(a, b)| (a..b).contains(&step))
+    }
+}
+
+/// The episode and control step in a frame's name `..._ep<episode>_s<step>.png`.
+fn episode_and_step(path: &Path) -> Option<(u64, u64)> {
+    let stem = path.file_stem()?.to_str()?;
+    let (head, step) = stem.rsplit_once("_s")?;
+    let (_, episode) = head.rsplit_once("_ep")?;
+    Some((episode.parse().ok()?, step.parse().ok()?))
 }
 
 /// The PNG files in `dir` whose names start with `prefix`, in name order.
@@ -120,5 +169,33 @@ mod tests {
         }
         let e = write(&[], &out, 400, 80).unwrap_err().to_string();
         assert!(e.contains("--frames-every"), "{e}");
+    }
+
+    #[test]
+    fn a_window_keeps_one_episodes_steps() {
+        let name = |ep: u64, s: u64| PathBuf::from(format!("f/env0_ep{ep:04}_s{s:06}.png"));
+        let w = Window {
+            episode: Some(1),
+            steps: Some((10, 30)),
+        };
+        let kept: Vec<bool> = [(1, 10), (1, 29), (1, 30), (1, 9), (0, 20), (11, 20)]
+            .iter()
+            .map(|&(ep, s)| w.holds(&name(ep, s)))
+            .collect();
+        assert_eq!(kept, [true, true, false, false, false, false]);
+        let steps_only = Window {
+            episode: None,
+            steps: Some((0, 20)),
+        };
+        assert!(steps_only.holds(&name(0, 10)) && steps_only.holds(&name(7, 0)));
+        assert!(!steps_only.holds(&name(7, 20)));
+        // simulate's frames (env0_s000010.png) have no episode: only the whole window holds them.
+        assert!(Window::default().holds(Path::new("env0_s000010.png")));
+        assert!(!steps_only.holds(Path::new("env0_s000010.png")));
+        assert_eq!(Window::parse_steps("200:600"), Ok((200, 600)));
+        for bad in ["600:200", "5:5", "200", "a:b", "-1:4"] {
+            let e = Window::parse_steps(bad).unwrap_err();
+            assert!(e.contains("START:END"), "{bad}: {e}");
+        }
     }
 }

@@ -5,7 +5,7 @@
 //! flushed CSVs) and exits with 128 + the signal's number (130, 143, 129); a second one of any
 //! of them exits at once, from the signal handler, with its own status.
 //!
-//! The flags are set by `signal_hook::flag` inside the handler (async-signal-safe); on Unix a
+//! The flags are set inside the handler by one atomic swap (async-signal-safe); on Unix a
 //! small thread also says at once what the command will do, since a training update may take
 //! a while to finish.
 
@@ -13,8 +13,6 @@ use std::io::Write;
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-
-use signal_hook::flag;
 
 /// A signal that stops a command cleanly.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -97,12 +95,20 @@ impl Stop {
             if s == Signal::Hup && ignored(s) {
                 continue; // nohup: the run outlives the terminal, as asked
             }
-            let n = s.number();
-            // The shutdown first (actions run in the order registered): it finds the flag
-            // unset on the first signal and set on any later one, which then exits at once.
-            let r = flag::register_conditional_shutdown(n, s.exit_code(), stopping.clone())
-                .and_then(|_| flag::register(n, stopping.clone()))
-                .and_then(|_| flag::register_usize(n, which.clone(), n as usize));
+            let (n, code) = (s.number(), s.exit_code());
+            let (stopping, which) = (stopping.clone(), which.clone());
+            // One atomic swap decides which signal is first, even when two arrive at once on
+            // two threads (two handlers that each loaded the flag before either set it would
+            // both take themselves for the first, and the second signal would be lost).
+            let action = move || {
+                if stopping.swap(true, Ordering::SeqCst) {
+                    signal_hook::low_level::exit(code);
+                }
+                which.store(n as usize, Ordering::SeqCst);
+            };
+            // SAFETY: the action only swaps and stores lock-free atomics and calls `_exit`,
+            // all async-signal-safe; it allocates nothing and takes no lock.
+            let r = unsafe { signal_hook::low_level::register(n, action) };
             match r {
                 Ok(_) => handled.push(s),
                 Err(e) => log::warn!("{} will not stop this run cleanly: {e}", s.name()),

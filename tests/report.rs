@@ -403,7 +403,7 @@ fn behaviour_dir(dir: &Path) {
         String::from(
             "env,episode,step,t_s,inlet_u_m_s,x_lo_mm,x_hi_mm,peak_u_m_s,mean_blocked,max_blocked\n",
         ),
-        String::from("env,episode,step,member,x_mm\n"),
+        String::from("env,episode,step,member,x_mm,y_mm,ax,ay\n"),
     );
     let mut x = 50.0;
     for k in 0..=400u64 {
@@ -429,7 +429,23 @@ fn behaviour_dir(dir: &Path) {
                 x + 1.0
             );
         }
-        traj += &format!("0,0,{k},0,{}\n0,0,{k},1,{}\n", x - 0.5, x + 0.5);
+        // Member 0 at y = 0.5 mm, member 1 at 1.5 mm (mid-height 1 mm). In forward flow both
+        // push 60 deg from upstream towards y = 0; otherwise each 40 deg towards its nearer wall.
+        let (ang, down) = if forward(k) {
+            (60f64, [-1.0, -1.0])
+        } else {
+            (40f64, [-1.0, 1.0])
+        };
+        let (c, s) = (ang.to_radians().cos(), ang.to_radians().sin());
+        traj += &format!(
+            "0,0,{k},0,{},0.5,{},{}\n0,0,{k},1,{},1.5,{},{}\n",
+            x - 0.5,
+            -c,
+            down[0] * s,
+            x + 0.5,
+            -c,
+            down[1] * s
+        );
     }
     std::fs::write(dir.join("swarm.csv"), swarm).unwrap();
     std::fs::write(dir.join("gap.csv"), gap).unwrap();
@@ -457,6 +473,12 @@ fn behaviour_measures_the_ratchet_throttling_and_approach() {
         md.contains("| 40 | 40 | 0.500 | 1.000 | 600 | 1.50 | 0.100 | 0.300 |"),
         "{md}"
     );
+    // Thrust: 40 forward steps x 2 members at 60 deg, half towards their nearer wall, all
+    // towards y = 0; 361 other steps x 2 at 40 deg, all towards the nearer wall.
+    assert!(
+        md.contains("| 80 | 60.0 ± 0.0 | 0.50 | 1.00 | 722 | 40.0 ± 0.0 | 1.00 | 0.50 |"),
+        "{md}"
+    );
     // The last 40 steps (0.2 s) spread twice as wide as the 361 rows before.
     assert!(md.contains("| 1 | 40 | 2.00 | 2.00 | 1/1 |"), "{md}");
     for f in ["ratchet.png", "throttling.png", "approach.png"] {
@@ -466,6 +488,16 @@ fn behaviour_measures_the_ratchet_throttling_and_approach() {
     }
     let csv = std::fs::read_to_string(out.join("behaviour.csv")).unwrap();
     assert_eq!(csv.lines().count(), 2, "{csv}");
+    assert!(
+        csv.lines()
+            .next()
+            .unwrap()
+            .ends_with(",thrust_rest_lower_wall")
+            && csv
+                .trim_end()
+                .ends_with(",80,60.00,0.00,0.5000,1.0000,722,40.00,0.00,1.0000,0.5000"),
+        "{csv}"
+    );
     // A directory without traces is refused with the file named.
     std::fs::remove_file(run.join("swarm.csv")).unwrap();
     let o = report(&["--behaviour", run.to_str().unwrap()]);

@@ -15,6 +15,10 @@
 //!   2 `APPROACH_S`, the mean sigma_x and R_g over its last `APPROACH_S` (in control steps,
 //!   rounded) divided by their mean over the steps before.
 //!
+//! - **Thrust direction** ([`super::thrust`], with `trajectories.csv`): the angle of the applied
+//!   thrust from upstream and the shares towards the nearer and the lower wall, in forward
+//!   flow and the rest: a constant controller keeps them, `scripted` switches them.
+//!
 //! Only finished episodes count (`RolloutRun` drops the rest), and not the diverged ones, whose
 //! last rows hold no finite positions.
 
@@ -23,6 +27,7 @@ use std::path::Path;
 
 use super::data::{Csv, RolloutRun, SwarmStep};
 use super::error::{ReportError, Result, Within};
+use super::thrust::{self, Thrust};
 
 /// The final approach (s): 40 control steps of 5 ms.
 pub const APPROACH_S: f64 = 0.2;
@@ -125,6 +130,9 @@ pub struct Behaviour {
     pub cycles: Vec<CycleShift>,
     /// The throttling numbers.
     pub throttling: Throttling,
+    /// The thrust direction in forward flow and the rest (None without actions in
+    /// `trajectories.csv`, or without thrust).
+    pub thrust: Option<Thrust>,
     /// The final-approach numbers (None without a long enough success).
     pub approach: Option<Approach>,
     /// The final approach in control steps (`APPROACH_S` at this directory's control step).
@@ -249,19 +257,20 @@ pub fn shown_episode(run: &RolloutRun, outcome: Option<&str>) -> Option<(usize, 
         .map(|e| (e.env, e.episode))
 }
 
-fn read_period(dir: &Path) -> Result<f64> {
+/// The positive number `section.key` of `dir/config.toml`.
+fn read_config_number(dir: &Path, section: &str, key: &str) -> Result<f64> {
     let path = dir.join("config.toml");
     let text = std::fs::read_to_string(&path).map_err(ReportError::read(&path))?;
     let value: toml::Value = toml::from_str(&text)
         .map_err(|e| ReportError::Invalid(format!("parsing {}: {e}", path.display())))?;
     value
-        .get("inlet")
-        .and_then(|s| s.get("period_s"))
+        .get(section)
+        .and_then(|s| s.get(key))
         .and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)))
         .filter(|p| *p > 0.0)
         .ok_or_else(|| {
             ReportError::Invalid(format!(
-                "{} has no positive inlet.period_s: a rollout writes the whole configuration",
+                "{} has no positive {section}.{key}: a rollout writes the whole configuration",
                 path.display()
             ))
         })
@@ -325,7 +334,7 @@ pub fn load(dir: &Path) -> Result<Behaviour> {
         .collect();
     run.swarm
         .retain(|s| !diverged.contains(&(s.env, s.episode)));
-    let period_s = read_period(dir)?;
+    let period_s = read_config_number(dir, "inlet", "period_s")?;
     let starts = read_starts(dir)?;
     let finished: BTreeMap<(usize, u64), f64> = run
         .episodes
@@ -362,6 +371,9 @@ pub fn load(dir: &Path) -> Result<Behaviour> {
         .map(|e| (e.env, e.episode))
         .collect();
     let throttling = throttling(&run.swarm, &gap, threshold_m_s);
+    let mid_y_mm = 0.5e3 * read_config_number(dir, "domain", "height_m")?;
+    let pushes = thrust::read_pushes(dir, &run.swarm, &finished)?;
+    let thrust = thrust::measure(&pushes, threshold_m_s, mid_y_mm);
     let k = steps_in(APPROACH_S, run.info.control_dt_s);
     let approach = approach(&episodes, &successful, k);
     Ok(Behaviour {
@@ -371,6 +383,7 @@ pub fn load(dir: &Path) -> Result<Behaviour> {
         gap,
         cycles,
         throttling,
+        thrust,
         approach,
         approach_steps: k,
         run,

@@ -15,6 +15,7 @@ use super::behaviour::{self, APPROACH_S, Behaviour};
 use super::data::Csv;
 use super::error::{ReportError, Result};
 use super::plot::{self, Curve, Panel, Reference, Secondary};
+use super::thrust;
 
 const PALETTE: [plotters::style::RGBColor; 7] = [
     plot::BLUE,
@@ -103,6 +104,27 @@ pub fn markdown(list: &[Behaviour], figures: &[String]) -> String {
             g.join(" | ")
         );
     }
+    md += "\n## Thrust direction (member-steps with thrust, from trajectories.csv)\n\nThe angle from upstream (0: upstream, 90: across the flow) and the shares of member-steps pushing towards the member's nearer wall and towards the lower wall (y = 0), in forward flow and in the rest.\n\n| directory | forward: member-steps | angle (deg, mean ± sd) | nearer wall | lower wall | rest: member-steps | angle (deg, mean ± sd) | nearer wall | lower wall |\n|---|---|---|---|---|---|---|---|---|\n";
+    for b in list {
+        let cells = |d: Option<&thrust::Direction>| match d.filter(|d| d.member_steps > 0) {
+            Some(d) => format!(
+                "{} | {} ± {} | {} | {}",
+                d.member_steps,
+                num(d.mean_deg, 1),
+                num(d.sd_deg, 1),
+                num(d.nearer_wall, 2),
+                num(d.lower_wall, 2)
+            ),
+            None => format!("{} | - | - | -", d.map_or(0, |d| d.member_steps)),
+        };
+        let t = b.thrust.as_ref();
+        md += &format!(
+            "| {} | {} | {} |\n",
+            b.run.info.dir.display(),
+            cells(t.map(|t| &t.forward)),
+            cells(t.map(|t| &t.rest))
+        );
+    }
     md += &format!(
         "\n## Final approach (successes of at least {} s)\n\n| directory | episodes | steps in the last {APPROACH_S} s | sigma_x last / before | R_g last / before | spreading (ratio > 1) |\n|---|---|---|---|---|---|\n",
         2.0 * APPROACH_S
@@ -144,7 +166,7 @@ pub fn markdown(list: &[Behaviour], figures: &[String]) -> String {
 /// `behaviour.csv`: one row per directory.
 pub fn csv(list: &[Behaviour]) -> String {
     let mut out = String::from(
-        "dir,policy,episodes,successes,cycles,ratchet_cycles,mean_forward_mm,mean_rest_mm,forward_steps,gap_steps,sigma_y_mm,sigma_x_mm,peak_u_mm_s,peak_over_inlet,mean_blocked,max_blocked,approach_episodes,approach_sigma_x_ratio,approach_r_g_ratio\n",
+        "dir,policy,episodes,successes,cycles,ratchet_cycles,mean_forward_mm,mean_rest_mm,forward_steps,gap_steps,sigma_y_mm,sigma_x_mm,peak_u_mm_s,peak_over_inlet,mean_blocked,max_blocked,approach_episodes,approach_sigma_x_ratio,approach_r_g_ratio,thrust_forward_steps,thrust_forward_deg,thrust_forward_sd_deg,thrust_forward_nearer_wall,thrust_forward_lower_wall,thrust_rest_steps,thrust_rest_deg,thrust_rest_sd_deg,thrust_rest_nearer_wall,thrust_rest_lower_wall\n",
     );
     for b in list {
         let (n, r, f, rest) = ratchet_numbers(b);
@@ -169,6 +191,25 @@ pub fn csv(list: &[Behaviour]) -> String {
             a.map_or(f64::NAN, |a| a.sigma_x_ratio),
             a.map_or(f64::NAN, |a| a.r_g_ratio),
         );
+        // The thrust columns, appended so that older readers keep their columns.
+        out.pop();
+        for d in [
+            b.thrust.as_ref().map(|t| &t.forward),
+            b.thrust.as_ref().map(|t| &t.rest),
+        ] {
+            let nan = f64::NAN;
+            let (n, m, sd, near, low) = d.map_or((0, nan, nan, nan, nan), |d| {
+                (
+                    d.member_steps,
+                    d.mean_deg,
+                    d.sd_deg,
+                    d.nearer_wall,
+                    d.lower_wall,
+                )
+            });
+            out += &format!(",{n},{m:.2},{sd:.2},{near:.4},{low:.4}");
+        }
+        out.push('\n');
     }
     out
 }

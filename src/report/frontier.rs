@@ -20,8 +20,9 @@
 use std::path::{Path, PathBuf};
 
 use super::data::read_episodes;
-use super::error::{ReportError, Result};
+use super::error::Result;
 use super::map::is_constant;
+use super::sweep_table::{self, SweepRow};
 use crate::rng::Rng;
 
 /// Bootstrap resamples.
@@ -147,50 +148,6 @@ pub fn read_eval(dir: &Path) -> Result<Option<RunEval>> {
     }))
 }
 
-/// A sweep run: its variant (point), label, seed and directory name.
-#[derive(Debug, Clone)]
-struct SweepRun {
-    point: usize,
-    overrides: String,
-    name: String,
-}
-
-fn sweep_runs(root: &Path) -> Result<Vec<SweepRun>> {
-    let path = root.join("sweep.csv");
-    let bad = |e: csv::Error| ReportError::Invalid(format!("reading {}: {e}", path.display()));
-    let mut reader = csv::Reader::from_path(&path).map_err(|e| {
-        ReportError::Usage(format!(
-            "reading {}: {e} (is {} the sweep directory of experiments/frontier_learners.sh?)",
-            path.display(),
-            root.display()
-        ))
-    })?;
-    let header = reader.headers().map_err(bad)?.clone();
-    let col = |name: &str| {
-        header.iter().position(|h| h == name).ok_or_else(|| {
-            ReportError::Invalid(format!("{} has no column `{name}`", path.display()))
-        })
-    };
-    let (point_c, dir_c, over_c) = (col("point")?, col("dir")?, col("overrides")?);
-    let mut runs = Vec::new();
-    for row in reader.records() {
-        let row = row.map_err(bad)?;
-        let point = row[point_c].parse().map_err(|_| {
-            ReportError::Invalid(format!("{}: point {:?}", path.display(), &row[point_c]))
-        })?;
-        let name = Path::new(&row[dir_c])
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        runs.push(SweepRun {
-            point,
-            overrides: row[over_c].to_string(),
-            name,
-        });
-    }
-    Ok(runs)
-}
-
 /// One row of the table: a variant under one evaluation.
 #[derive(Debug, Clone)]
 pub struct Row {
@@ -235,7 +192,14 @@ fn subdirs(dir: &Path) -> Vec<PathBuf> {
 
 /// Reads the variants' evaluations and the comparators under `root`.
 pub fn load(root: &Path) -> Result<(Vec<Row>, Vec<Comparator>)> {
-    let runs = sweep_runs(root)?;
+    let runs = sweep_table::read(
+        root,
+        &format!(
+            "is {} the sweep directory of experiments/frontier_learners.sh?",
+            root.display()
+        ),
+    )?
+    .rows;
     let mut evaluations = vec!["sampled".to_string(), "deterministic".to_string()];
     let mut changes: Vec<String> = subdirs(&root.join("neighbours"))
         .iter()
@@ -249,12 +213,12 @@ pub fn load(root: &Path) -> Result<(Vec<Row>, Vec<Comparator>)> {
     let mut rows = Vec::new();
     for evaluation in &evaluations {
         for v in 0..variants {
-            let of: Vec<&SweepRun> = runs.iter().filter(|r| r.point == v).collect();
+            let of: Vec<&SweepRow> = runs.iter().filter(|r| r.point == v).collect();
             let mut evals = Vec::new();
             for r in &of {
                 let dir = match evaluation.strip_prefix("neighbours/") {
-                    Some(change) => root.join("neighbours").join(&r.name).join(change),
-                    None => root.join("eval").join(&r.name).join(evaluation),
+                    Some(change) => root.join("neighbours").join(r.name()).join(change),
+                    None => root.join("eval").join(r.name()).join(evaluation),
                 };
                 if let Some(e) = read_eval(&dir)? {
                     evals.push(e);

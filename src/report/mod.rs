@@ -26,6 +26,7 @@ pub mod markdown;
 pub mod plot;
 pub mod stats;
 pub mod sweep;
+pub mod sweep_table;
 pub mod thrust;
 
 use std::path::{Path, PathBuf};

@@ -19,6 +19,7 @@ use super::data::{RunInfo, read_episodes};
 use super::heatmap::{self, HeatAxes, HeatPanel, Scale};
 use super::plot::{self, Curve, Panel};
 use super::stats::{Band, mean_ci95, wilson95};
+use super::sweep_table;
 
 /// Episodes at the end of a train run that give its final metrics (the window `train`'s
 /// progress line reports).
@@ -56,48 +57,19 @@ pub struct SweepSummary {
 
 /// Reads `root/sweep.csv` and every done run's episodes.
 pub fn load(root: &Path) -> Result<SweepSummary> {
-    let path = root.join("sweep.csv");
-    let bad_csv = |e: csv::Error| ReportError::Invalid(format!("reading {}: {e}", path.display()));
-    let mut reader = csv::Reader::from_path(&path).map_err(|e| {
-        ReportError::Usage(format!(
-            "reading {}: {e} (is {} a sweep directory? `fluxswarm-gpu sweep --status --out {}` \
-             refreshes the table)",
-            path.display(),
-            root.display(),
+    let table = sweep_table::read(
+        root,
+        &format!(
+            "is {0} a sweep directory? `fluxswarm-gpu sweep --status --out {0}` refreshes the table",
             root.display()
-        ))
-    })?;
-    let header: Vec<String> = reader
-        .headers()
-        .map_err(bad_csv)?
-        .iter()
-        .map(String::from)
-        .collect();
-    let col = |name: &str| {
-        header.iter().position(|h| h == name).ok_or_else(|| {
-            ReportError::Invalid(format!("{} has no column `{name}`", path.display()))
-        })
-    };
-    let (point_c, status_c, dir_c, over_c, commit_c) = (
-        col("point")?,
-        col("status")?,
-        col("dir")?,
-        col("overrides")?,
-        col("commit")?,
-    );
-    let keys: Vec<String> = header[over_c + 1..commit_c].to_vec();
+        ),
+    )?;
+    let path = &table.path;
     let mut points: Vec<PointSummary> = Vec::new();
     let mut per_seed: Vec<Vec<[f64; 3]>> = Vec::new();
     let mut success_steps: Vec<Vec<f64>> = Vec::new();
-    for row in reader.records() {
-        let row = row.map_err(bad_csv)?;
-        let point: usize = row[point_c].parse().map_err(|_| {
-            ReportError::Invalid(format!(
-                "{}: point {:?} is not a number",
-                path.display(),
-                &row[point_c]
-            ))
-        })?;
+    for row in &table.rows {
+        let point = row.point;
         if point >= points.len() {
             points.resize_with(point + 1, || PointSummary {
                 point: 0,
@@ -114,12 +86,12 @@ pub fn load(root: &Path) -> Result<SweepSummary> {
         }
         let p = &mut points[point];
         p.point = point;
-        p.values = (over_c + 1..commit_c).map(|i| row[i].to_string()).collect();
+        p.values = row.values.clone();
         p.seeds += 1;
-        if &row[status_c] != "done" {
+        if row.status != "done" {
             continue;
         }
-        let dir = root.join(&row[dir_c]);
+        let dir = root.join(&row.dir);
         let episodes_path = dir.join("episodes.csv");
         let first =
             std::fs::read_to_string(&episodes_path).map_err(ReportError::read(&episodes_path))?;
@@ -162,7 +134,10 @@ pub fn load(root: &Path) -> Result<SweepSummary> {
             path.display()
         )));
     }
-    Ok(SweepSummary { keys, points })
+    Ok(SweepSummary {
+        keys: table.keys,
+        points,
+    })
 }
 
 fn interval(m: (f64, f64)) -> String {

@@ -11,7 +11,8 @@
 #   (as the eval stage) as soon as it has finished. With FRONTIER_SLURM=1 it writes the Slurm
 #   array and submits it instead, every run at once. With FRONTIER_EVAL=later it leaves the
 #   evaluations to an eval-follow stage running beside it (on two cores: one training run with
-#   two threads, the evaluations with one), so that training never waits for them.
+#   two threads, the evaluations with one), so that training never waits for them. A task
+#   listed in SWEEP_DIR/device-claims is skipped: scripts/device-sweep runs it on a GPU machine.
 # - eval: every finished run, 40 episodes at seed 201 on 4 environments, once sampled and once
 #   with the mean action. Output goes to SWEEP_DIR/eval/<run>/{sampled,deterministic}.
 # - eval-follow (not in the default list): the eval stage again every 5 minutes until no run
@@ -66,6 +67,10 @@ stage_train() {
             # A run done before (in an earlier session) is evaluated now if it was not yet:
             # eval_once skips complete evaluations.
             if [ "$(awk -F, -v r=$((i + 2)) 'NR == r { print $3 }' "$S/sweep.csv")" != done ]; then
+                if grep -qx "$i" "$S/device-claims" 2>/dev/null; then
+                    say "train: task $i is claimed by a GPU machine (scripts/device-sweep); skipped until merged"
+                    continue
+                fi
                 say "train: task $i (point $p, seed index $s)"
                 fluxswarm sweep --task "$i" --out "$S" >>"$S/logs/task$i.log" 2>&1 ||
                     { say "train: task $i stopped or failed (see $S/logs/task$i.log)"; continue; }

@@ -491,6 +491,65 @@ fn policy_file_runs_as_its_checkpoint(extra: &[&str]) {
     assert!(o.status.success(), "{}", text(&o));
 }
 
+/// `--policy-every K` keeps the policy of every checkpoint at a multiple of K updates in
+/// `policies/`: the actor and normaliser of that checkpoint; none with K = 0.
+#[test]
+fn policy_snapshots_are_the_policies_of_their_updates() {
+    let dir = tempfile::tempdir().unwrap();
+    let (run, none) = (dir.path().join("run"), dir.path().join("none"));
+    // 8 global steps an update: 6 updates, checkpoints at 2, 4 and 6 (all three kept), a
+    // snapshot at 4 only.
+    let o = bin(&train_args(
+        run.to_str().unwrap(),
+        "48",
+        &["--policy-every", "4"],
+    ));
+    assert!(o.status.success(), "{}", text(&o));
+    let names = |d: &Path| {
+        let mut v: Vec<String> = std::fs::read_dir(d.join("policies"))
+            .map(|r| {
+                r.map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                    .collect()
+            })
+            .unwrap_or_default();
+        v.sort();
+        v
+    };
+    assert_eq!(names(&run), ["update-0000004.safetensors"]);
+    let snapshot = Archive::load(&run.join("policies/update-0000004.safetensors")).unwrap();
+    let checkpoint = Archive::load(&run.join("checkpoints/update-0000004.safetensors")).unwrap();
+    let last = Archive::load(&run.join("policy.safetensors")).unwrap();
+    assert_eq!(snapshot.meta("kind").unwrap(), "policy");
+    assert_eq!(snapshot.meta("update").unwrap(), "4");
+    for layer in ["l1", "l2", "head"] {
+        for part in ["weight", "bias"] {
+            let name = format!("learner.param.actor.{layer}.{part}");
+            let at4 = snapshot.f32(&name, None).unwrap();
+            assert_eq!(at4, checkpoint.f32(&name, None).unwrap(), "{name}");
+            assert_ne!(
+                at4,
+                last.f32(&name, None).unwrap(),
+                "{name} moved after update 4"
+            );
+        }
+    }
+    for stat in ["mean", "var"] {
+        let name = format!("learner.obs_norm.{stat}");
+        assert_eq!(
+            snapshot.f64(&name, None).unwrap(),
+            checkpoint.f64(&name, None).unwrap(),
+            "{name}"
+        );
+    }
+    let o = bin(&train_args(
+        none.to_str().unwrap(),
+        "48",
+        &["--policy-every", "0"],
+    ));
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(names(&none).is_empty() && !none.join("policies").exists());
+}
+
 #[test]
 fn damaged_and_misused_checkpoints_fail_clearly() {
     let dir = tempfile::tempdir().unwrap();

@@ -4,7 +4,10 @@
 //! 7), a TensorBoard event file of the same scalars, and `checkpoints/update-NNNNNNN.safetensors`
 //! (every K updates, at the end and on a signal; the newest three are kept), with
 //! `policy.safetensors` (the newest checkpoint's actor, normaliser and configuration: a few
-//! hundred KB to share or commit) rewritten beside them. A checkpoint holds
+//! hundred KB to share or commit) rewritten beside them, and kept as
+//! `policies/update-NNNNNNN.safetensors` at every checkpoint whose update is a multiple of
+//! `--policy-every` (250; never pruned: a run's learning curve can be evaluated afterwards).
+//! A checkpoint holds
 //! the learner, the environments and the run's counters, including how many bytes of each log
 //! belong to it, so `--resume DIR` cuts the logs back to that point and continues exactly as
 //! the uninterrupted run would have (same adapter).
@@ -62,6 +65,11 @@ pub struct TrainArgs {
     /// SIGHUP).
     #[arg(long, default_value_t = 25, value_name = "K")]
     pub checkpoint_every: u64,
+    /// Also keep the policy of every checkpoint whose update is a multiple of K in
+    /// `policies/update-NNNNNNN.safetensors` (never pruned; 0: none), so that the run's learning
+    /// curve can be evaluated afterwards with `eval --checkpoint FILE`.
+    #[arg(long, default_value_t = 250, value_name = "K")]
+    pub policy_every: u64,
 }
 
 /// The trained policy alone (actor, normaliser, configuration), rewritten with every
@@ -78,6 +86,8 @@ struct Plan {
     seed: u64,
     envs: usize,
     steps: u64,
+    /// `--policy-every`.
+    policy_every: u64,
 }
 
 /// The counters a checkpoint carries besides the learner and the environments.
@@ -263,6 +273,7 @@ fn fresh_plan(args: &mut TrainArgs) -> anyhow::Result<Plan> {
         seed: args.seed.unwrap_or(0),
         envs,
         steps,
+        policy_every: args.policy_every,
     })
 }
 
@@ -336,6 +347,7 @@ fn resume_plan(dir: &Path, archive: &Archive, args: &TrainArgs) -> anyhow::Resul
         seed: archive.meta_parse("seed")?,
         envs: archive.meta_parse("envs")?,
         steps,
+        policy_every: args.policy_every,
     })
 }
 
@@ -473,6 +485,12 @@ fn save(
     learner.save_policy(&mut policy)?;
     identify(&mut policy, "policy", plan, p);
     policy.save(&plan.out.join(POLICY_FILE))?;
+    if p.update > 0 && plan.policy_every > 0 && p.update.is_multiple_of(plan.policy_every) {
+        let snapshots = plan.out.join("policies");
+        std::fs::create_dir_all(&snapshots)
+            .with_context(|| format!("creating {}", snapshots.display()))?;
+        policy.save(&snapshots.join(checkpoint::file_name(p.update)))?;
+    }
     log::debug!("checkpoint {}", path.display());
     for old in checkpoint::list(dir).into_iter().skip(KEEP) {
         let _ = std::fs::remove_file(old);

@@ -15,7 +15,8 @@
 //!
 //! Comparators get k/n with their successes. The protocol's bar: a variant passes when its
 //! pooled sampled rate is at least 80 % and every constant comparator's is at most 20 %.
-//! `frontier_output` writes `frontier.md` and `frontier.csv`.
+//! `frontier_output` writes `frontier.md` and `frontier.csv`; `training_curve` adds each done
+//! run's training curve from `DIR/runs/<run>/episodes.csv`.
 
 use std::path::{Path, PathBuf};
 
@@ -23,6 +24,7 @@ use super::data::read_episodes;
 use super::error::Result;
 use super::map::is_constant;
 use super::sweep_table::{self, SweepRow};
+use super::training_curve::{self, Curve};
 use crate::rng::Rng;
 
 /// Bootstrap resamples.
@@ -190,8 +192,19 @@ fn subdirs(dir: &Path) -> Vec<PathBuf> {
     v
 }
 
-/// Reads the variants' evaluations and the comparators under `root`.
-pub fn load(root: &Path) -> Result<(Vec<Row>, Vec<Comparator>)> {
+/// What `report --frontier` reads under `root`.
+#[derive(Debug, Clone)]
+pub struct Frontier {
+    /// A row per variant and evaluation.
+    pub rows: Vec<Row>,
+    /// The comparators.
+    pub comparators: Vec<Comparator>,
+    /// The done runs' training curves.
+    pub curves: Vec<Curve>,
+}
+
+/// Reads the variants' evaluations, the comparators and the training curves under `root`.
+pub fn load(root: &Path) -> Result<Frontier> {
     let runs = sweep_table::read(
         root,
         &format!(
@@ -249,7 +262,12 @@ pub fn load(root: &Path) -> Result<(Vec<Row>, Vec<Comparator>)> {
             });
         }
     }
-    Ok((rows, comparators))
+    let curves = training_curve::load(root, &runs)?;
+    Ok(Frontier {
+        rows,
+        comparators,
+        curves,
+    })
 }
 
 /// The comparator's policy name as the CLI spells it (`wall-angle-40` -> `wall-angle:40`).
@@ -391,7 +409,9 @@ mod tests {
             &[("success", 0.0), ("failure", 0.0)],
         );
         episodes(&root.join("comparators/scripted"), &[("success", 0.0)]);
-        let (rows, comparators) = load(root).unwrap();
+        let Frontier {
+            rows, comparators, ..
+        } = load(root).unwrap();
         let row = |v: usize, e: &str| {
             rows.iter()
                 .find(|r| r.variant == v && r.evaluation == e)
@@ -430,7 +450,7 @@ mod tests {
             ]
         );
         assert_eq!(constants_under_bar(&comparators), Some(false));
-        let md = super::super::frontier_output::markdown(root, &rows, &comparators);
+        let md = super::super::frontier_output::markdown(root, &rows, &comparators, &[]);
         assert!(
             md.contains("| 0 | --steps=8 | sampled | 2/2 | 75 % ["),
             "{md}"

@@ -12,6 +12,7 @@ use super::frontier::{
 };
 use super::map::is_constant;
 use super::stats::wilson95;
+use super::training_curve::{self, Curve};
 
 fn pct(e: &Estimate) -> String {
     format!(
@@ -23,7 +24,7 @@ fn pct(e: &Estimate) -> String {
 }
 
 /// `frontier.md`.
-pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator]) -> String {
+pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator], curves: &[Curve]) -> String {
     let mut md = format!("# Learning at the frontier: {}\n\n", root.display());
     md += &format!(
         "Per variant and evaluation: the runs evaluated of the variant's seeds; the pooled \
@@ -124,7 +125,7 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator]) -> String
             );
         }
     }
-    md
+    md + "\n" + &training_curve::markdown(curves)
 }
 
 /// `frontier.csv`: one row per variant and evaluation.
@@ -176,10 +177,11 @@ pub fn csv(rows: &[Row]) -> Result<Vec<u8>> {
 
 /// Writes `frontier.md` and `frontier.csv` into `out`.
 pub fn write(root: &Path, out: &Path) -> Result<()> {
-    let (rows, comparators) = load(root)?;
+    let f = load(root)?;
+    let (rows, comparators) = (&f.rows, &f.comparators);
     let (md_path, csv_path) = (out.join("frontier.md"), out.join("frontier.csv"));
-    std::fs::write(&md_path, markdown(root, &rows, &comparators))
+    std::fs::write(&md_path, markdown(root, rows, comparators, &f.curves))
         .map_err(ReportError::write(&md_path))?;
-    std::fs::write(&csv_path, csv(&rows)?).map_err(ReportError::write(&csv_path))?;
+    std::fs::write(&csv_path, csv(rows)?).map_err(ReportError::write(&csv_path))?;
     Ok(())
 }

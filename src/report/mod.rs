@@ -28,6 +28,7 @@ pub mod stats;
 pub mod sweep;
 pub mod sweep_table;
 pub mod thrust;
+pub mod training_curve;
 
 use std::path::{Path, PathBuf};
 

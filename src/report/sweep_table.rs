@@ -11,6 +11,8 @@ use super::error::{ReportError, Result};
 pub struct SweepRow {
     /// The point (variant) index.
     pub point: usize,
+    /// The run's seed, as written.
+    pub seed: String,
     /// `pending`, `running`, `done`, `failed` or `stopped`.
     pub status: String,
     /// The run's directory, relative to the sweep directory.
@@ -60,8 +62,9 @@ pub fn read(root: &Path, hint: &str) -> Result<SweepTable> {
             ReportError::Invalid(format!("{} has no column `{name}`", path.display()))
         })
     };
-    let (point_c, status_c, dir_c, over_c, commit_c) = (
+    let (point_c, seed_c, status_c, dir_c, over_c, commit_c) = (
         col("point")?,
+        col("seed")?,
         col("status")?,
         col("dir")?,
         col("overrides")?,
@@ -85,6 +88,7 @@ pub fn read(root: &Path, hint: &str) -> Result<SweepTable> {
         })?;
         rows.push(SweepRow {
             point,
+            seed: row[seed_c].to_string(),
             status: row[status_c].to_string(),
             dir: row[dir_c].to_string(),
             overrides: row[over_c].to_string(),
@@ -116,6 +120,7 @@ mod tests {
         assert_eq!(t.keys, ["--steps", "train.gamma"]);
         assert_eq!(t.rows.len(), 2);
         assert_eq!(t.rows[1].point, 1);
+        assert_eq!(t.rows[1].seed, "1");
         assert_eq!(t.rows[1].status, "pending");
         assert_eq!(t.rows[1].values, ["8", "0.99"]);
         assert_eq!(t.rows[0].name(), "p000_a_seed1");

@@ -26,13 +26,18 @@
 #   evaluated), sampled, 40 episodes at seed 201, at flow scale x0.9 and x1.1 and at F_max x0.75
 #   and x1.25 (`rollout --policy RUN --set`, config::TRANSFER_KEYS). Without FRONTIER_NEIGHBOURS
 #   the stage says so and skips. Output goes to SWEEP_DIR/neighbours/<run>/<change>.
+# - curve (not in the default list; exploratory, outside the protocol): each done run's policy
+#   snapshots (`train --policy-every`, policies/update-N.safetensors) evaluated sampled at seed
+#   201 with FRONTIER_CURVE_EPISODES (default 16) episodes on 4 environments, into
+#   SWEEP_DIR/curve/<run>/update-N: whether the evaluated policy rises and falls as the
+#   training window does. The protocol's evaluation stays the final policy's.
 # - report: `report --frontier` into SWEEP_DIR/report (frontier.md, frontier.csv): each
 #   variant's pooled success rate and metrics per evaluation, with bootstrap 95 % intervals
 #   over seeds, the comparators and the goal. It reads whatever has finished so far.
 # - results (not in the default list): copies what has finished into FRONTIER_RESULTS (default
 #   assets/results/frontier_learners), the results to commit: sweep.csv, each done run's
 #   config.toml and training episodes.csv (runs/<run>/), and the config.toml and episodes.csv
-#   of every complete evaluation, neighbour and comparator, in the layout `report --frontier`
+#   of every complete evaluation, neighbour, curve point and comparator, in the layout `report --frontier`
 #   reads, then runs the report there (FRONTIER_RESULTS/report). No checkpoint is copied.
 source "$(dirname "$0")/common.sh"
 cd "$ROOT"
@@ -41,6 +46,7 @@ S=${1:-runs/frontier-learners}
 SPEC=${FRONTIER_SPEC:-experiments/sweeps/frontier-learners.toml}
 CONFIG=${FRONTIER_CONFIG:-configs/frontier-fine-085.toml}
 K=${FRONTIER_EPISODES:-40}
+KC=${FRONTIER_CURVE_EPISODES:-16}
 SEED=201
 read -r -a stages <<<"${FRONTIER_STAGES:-train eval comparators neighbours report}"
 
@@ -82,26 +88,26 @@ stage_train() {
     done
 }
 
-# complete DIR: DIR holds K finished episodes.
+# complete DIR [N]: DIR holds N (default K) finished episodes.
 complete() {
-    [ -s "$1/episodes.csv" ] && [ "$(($(wc -l <"$1/episodes.csv") - 1))" -ge "$K" ]
+    [ -s "$1/episodes.csv" ] && [ "$(($(wc -l <"$1/episodes.csv") - 1))" -ge "${2:-$K}" ]
 }
 
-# eval_once DIR ARGS...: `eval ARGS --episodes K --no-traces --out DIR` unless DIR holds K
-# episodes already or another process is evaluating it (it holds DIR.lock, a file that stays;
+# eval_once DIR ARGS...: `eval ARGS --episodes N --no-traces --out DIR` (N: EVAL_EPISODES,
+# default K) unless DIR holds N episodes already or another process is evaluating it (it holds DIR.lock, a file that stays;
 # the lock is released when the process exits).
 eval_once() {
-    local dir=$1 lock
+    local dir=$1 lock n=${EVAL_EPISODES:-$K}
     shift
-    complete "$dir" && return
+    complete "$dir" "$n" && return
     mkdir -p "$(dirname "$dir")"
     exec {lock}>"$dir.lock"
     flock -n "$lock" || { say "eval $dir: another process is on it"; exec {lock}>&-; return 0; }
     # It may have finished while this process waited to open the lock.
-    complete "$dir" && { exec {lock}>&-; return; }
+    complete "$dir" "$n" && { exec {lock}>&-; return; }
     rm -rf "$dir"
     say "eval $dir"
-    fluxswarm eval "$@" --envs 4 --episodes "$K" --seed "$SEED" --no-traces --out "$dir" \
+    fluxswarm eval "$@" --envs 4 --episodes "$n" --seed "$SEED" --no-traces --out "$dir" \
         >/dev/null 2>"$dir.log" ||
         { say "eval $dir failed: $(tail -1 "$dir.log")"; exec {lock}>&-; return 1; }
     rm -f "$dir.log"
@@ -172,15 +178,28 @@ stage_neighbours() {
     done
 }
 
+# Exploratory (module header): each done run's policy snapshots, sampled, KC episodes each.
+stage_curve() {
+    local run f EVAL_EPISODES=$KC
+    for run in $(done_runs); do
+        for f in "$S/$run"/policies/update-*.safetensors; do
+            [ -f "$f" ] || continue
+            eval_once "$S/curve/$(basename "$run")/$(basename "$f" .safetensors)" \
+                --checkpoint "$f" || true
+        done
+    done
+}
+
 stage_report() {
     fluxswarm report --frontier "$S" --out "$S/report" >/dev/null
     say "report: $S/report/frontier.md"
 }
 
-# copy_complete SRC DST: SRC's config.toml and episodes.csv into DST when SRC holds K episodes.
+# copy_complete SRC DST [N]: SRC's config.toml and episodes.csv into DST when SRC holds N
+# (default K) episodes.
 copy_complete() {
     local src=$1 dst=$2
-    [ -s "$src/episodes.csv" ] && [ "$(($(wc -l <"$src/episodes.csv") - 1))" -ge "$K" ] || return 0
+    complete "$src" "${3:-$K}" || return 0
     mkdir -p "$dst"
     cp "$src/config.toml" "$src/episodes.csv" "$dst/"
 }
@@ -197,15 +216,18 @@ stage_results() {
     for d in "$S"/eval/*/* "$S"/neighbours/*/* "$S"/comparators/*; do
         [ -d "$d" ] && copy_complete "$d" "$R/${d#"$S"/}"
     done
+    for d in "$S"/curve/*/*; do
+        [ -d "$d" ] && copy_complete "$d" "$R/${d#"$S"/}" "$KC"
+    done
     fluxswarm report --frontier "$R" --out "$R/report" >/dev/null
     say "results: $R (report: $R/report/frontier.md)"
 }
 
 for stage in "${stages[@]}"; do
     case $stage in
-        train | eval | eval-follow | comparators | neighbours | report | results) "stage_$stage" ;;
+        train | eval | eval-follow | comparators | neighbours | curve | report | results) "stage_$stage" ;;
         *)
-            echo "unknown stage '$stage' (train, eval, eval-follow, comparators, neighbours, report, results)" >&2
+            echo "unknown stage '$stage' (train, eval, eval-follow, comparators, neighbours, curve, report, results)" >&2
             exit 2
             ;;
     esac

@@ -4,6 +4,10 @@
 //! global step g (1 <= g <= G) falls in bin floor((g - 1) * BINS / G), 0..BINS - 1. A policy
 //! that learns and then loses what it learned shows as a row that rises and falls; the
 //! protocol evaluates only the final policy.
+//!
+//! Where the `curve` stage of experiments/frontier_learners.sh has evaluated a run's policy
+//! snapshots (`DIR/curve/<run>/update-N/episodes.csv`, sampled at the protocol's seed), their
+//! successes are listed too, by update: exploratory, outside the protocol.
 
 use std::path::Path;
 
@@ -32,6 +36,8 @@ pub struct Curve {
     pub seed: String,
     /// The bins, first tenth first.
     pub bins: [Bin; BINS],
+    /// The evaluated policy snapshots: (update, successes and episodes), by update.
+    pub snapshots: Vec<(u64, Bin)>,
 }
 
 /// The bins of a run's training episodes (module header).
@@ -62,10 +68,37 @@ pub fn load(root: &Path, runs: &[SweepRow]) -> Result<Vec<Curve>> {
             variant: r.point,
             seed: r.seed.clone(),
             bins: bins(&read_episodes(&path, true)?),
+            snapshots: snapshots(&root.join("curve").join(r.name()))?,
         });
     }
     curves.sort_by(|a, b| (a.variant, &a.seed).cmp(&(b.variant, &b.seed)));
     Ok(curves)
+}
+
+/// The evaluations of a run's snapshots under `dir` (`update-N/episodes.csv`), by update.
+fn snapshots(dir: &Path) -> Result<Vec<(u64, Bin)>> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let Some(update) = name.strip_prefix("update-").and_then(|u| u.parse().ok()) else {
+            continue;
+        };
+        let path = entry.path().join("episodes.csv");
+        if !path.exists() {
+            continue;
+        }
+        let episodes = read_episodes(&path, false)?;
+        let successes = episodes.iter().filter(|e| e.outcome == "success").count();
+        out.push((
+            update,
+            Bin {
+                successes,
+                episodes: episodes.len(),
+            },
+        ));
+    }
+    out.sort_by_key(|s| s.0);
+    Ok(out)
 }
 
 /// The markdown section: a row per run, each bin as "rate (episodes)".
@@ -92,6 +125,21 @@ pub fn markdown(curves: &[Curve]) -> String {
     }
     if curves.is_empty() {
         md += "\nNo run is done yet.\n";
+    }
+    let evaluated: Vec<&Curve> = curves.iter().filter(|c| !c.snapshots.is_empty()).collect();
+    if !evaluated.is_empty() {
+        md += "\n### Policy snapshots evaluated (exploratory, outside the protocol)\n\n\
+               Successes of each kept policy (`train --policy-every`), sampled at the protocol's \
+               seed (the `curve` stage), by update.\n\n| variant | seed | successes by update |\n\
+               |---|---|---|\n";
+        for c in evaluated {
+            let points: Vec<String> = c
+                .snapshots
+                .iter()
+                .map(|(u, b)| format!("{u}: {}/{}", b.successes, b.episodes))
+                .collect();
+            md += &format!("| {} | {} | {} |\n", c.variant, c.seed, points.join(", "));
+        }
     }
     md
 }
@@ -162,13 +210,22 @@ mod tests {
             successes: 1,
             episodes: 4,
         };
-        let md = markdown(&[Curve {
+        let curve = |snapshots| Curve {
             variant: 3,
             seed: "2".into(),
             bins,
-        }]);
+            snapshots,
+        };
+        let md = markdown(&[curve(Vec::new())]);
         assert!(md.contains("| 3 | 2 | 25 % (4) | - |"), "{md}");
         assert!(md.contains("| 0-10 % | 10-20 % |"), "{md}");
+        assert!(!md.contains("snapshots evaluated"), "{md}");
+        let two = Bin {
+            successes: 2,
+            episodes: 16,
+        };
+        let md = markdown(&[curve(vec![(250, two)])]);
+        assert!(md.contains("| 3 | 2 | 250: 2/16 |"), "{md}");
         assert!(markdown(&[]).contains("No run is done yet."));
     }
 
@@ -184,6 +241,21 @@ mod tests {
              16,1,0,5,success,2,0,1,19\n",
         )
         .unwrap();
+        // Two evaluated snapshots (update-1000 sorts before update-250 as text) and a stray
+        // directory.
+        let eval = "env,episode,steps,outcome,progress,energy,smoothness,final_x_com_mm\n";
+        for (name, rows) in [
+            (
+                "update-250",
+                "0,0,9,success,1,0,1,19\n1,0,4,failure,-1,0,1,61\n",
+            ),
+            ("update-1000", "0,0,4,failure,-1,0,1,61\n"),
+            ("notes", "0,0,4,failure,-1,0,1,61\n"),
+        ] {
+            let d = dir.path().join("curve/p001_x_seed4").join(name);
+            std::fs::create_dir_all(&d).unwrap();
+            std::fs::write(d.join("episodes.csv"), format!("{eval}{rows}")).unwrap();
+        }
         let row = |status: &str, dir: &str| SweepRow {
             point: 1,
             seed: "4".into(),
@@ -207,5 +279,6 @@ mod tests {
         assert_eq!(curves[0].bins[4], bin(0, 1));
         assert_eq!(curves[0].bins[9], bin(1, 1));
         assert_eq!((curves[0].variant, curves[0].seed.as_str()), (1, "4"));
+        assert_eq!(curves[0].snapshots, [(250, bin(1, 2)), (1000, bin(0, 1))]);
     }
 }

@@ -14,6 +14,7 @@ mod signals;
 mod simulate;
 mod sweep;
 mod train;
+mod train_logs;
 
 use clap::{Parser, Subcommand};
 

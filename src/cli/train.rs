@@ -26,15 +26,13 @@ use fluxswarm_gpu::checkpoint::{self, Archive, CheckpointError};
 use fluxswarm_gpu::config::{Config, Resolved};
 use fluxswarm_gpu::env::{OBS_DIM, Outcome, SwarmEnv};
 use fluxswarm_gpu::learn::env::MultiAgentEnv;
-use fluxswarm_gpu::learn::mappo::{Iteration, Learner, TrainConfig};
-use fluxswarm_gpu::output::episodes::EpisodesCsv;
+use fluxswarm_gpu::learn::mappo::{Learner, TrainConfig};
 use fluxswarm_gpu::output::run_dir;
-use fluxswarm_gpu::output::tables;
-use fluxswarm_gpu::output::tensorboard::EventWriter;
 
 use super::common::ConfigArgs;
 use super::progress::Progress as Bar;
 use super::signals::{self, Stop};
+use super::train_logs::{Logs, create_logs, log_update, reopen_logs};
 
 #[derive(Debug, Args)]
 pub struct TrainArgs {
@@ -97,13 +95,6 @@ struct Progress {
     global: u64,
     sim_s: f64,
     learn_s: f64,
-}
-
-/// The run's open log files.
-struct Logs {
-    episodes: EpisodesCsv,
-    updates: std::io::BufWriter<std::fs::File>,
-    events: EventWriter,
 }
 
 pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
@@ -179,7 +170,7 @@ pub fn run(mut args: TrainArgs) -> anyhow::Result<()> {
         progress.update += 1;
         progress.sim_s += it.sim_s;
         progress.learn_s += it.learn_s;
-        log_update(&mut logs, &progress, &it)?;
+        log_update(&mut logs, progress.update, progress.global, &it)?;
         for s in &it.episodes {
             recent.push_back((
                 s.outcome == Outcome::Success,
@@ -349,100 +340,6 @@ fn resume_plan(dir: &Path, archive: &Archive, args: &TrainArgs) -> anyhow::Resul
         steps,
         policy_every: args.policy_every,
     })
-}
-
-fn create_logs(out: &Path) -> anyhow::Result<Logs> {
-    let episodes = EpisodesCsv::create(out, true).context("creating episodes.csv")?;
-    let f = std::fs::File::create(out.join("updates.csv")).context("creating updates.csv")?;
-    let mut updates = std::io::BufWriter::new(f);
-    writeln!(updates, "{}", tables::UPDATES_COLUMNS)?;
-    updates.flush()?;
-    let events = EventWriter::create(out).context("creating the TensorBoard event file")?;
-    Ok(Logs {
-        episodes,
-        updates,
-        events,
-    })
-}
-
-fn reopen_logs(out: &Path, archive: &Archive) -> anyhow::Result<Logs> {
-    let cut = |key: &str| archive.meta_parse::<u64>(key);
-    let episodes = EpisodesCsv::resume(out, true, cut("episodes_csv_bytes")?)
-        .context("reopening episodes.csv")?;
-    let f = run_dir::append_after(&out.join("updates.csv"), cut("updates_csv_bytes")?)
-        .context("reopening updates.csv")?;
-    let events = EventWriter::resume(
-        &out.join(archive.meta("events_file")?),
-        cut("events_bytes")?,
-    )
-    .context("reopening the TensorBoard event file")?;
-    Ok(Logs {
-        episodes,
-        updates: std::io::BufWriter::new(f),
-        events,
-    })
-}
-
-fn log_update(logs: &mut Logs, p: &Progress, it: &Iteration) -> anyhow::Result<()> {
-    for s in &it.episodes {
-        logs.episodes.write(p.global, s)?;
-        logs.events.scalars(
-            p.global,
-            &[
-                ("episode/progress", s.progress as f32),
-                ("episode/energy", s.energy as f32),
-                ("episode/smoothness", s.smoothness as f32),
-                ("episode/steps", s.steps as f32),
-                (
-                    "episode/success",
-                    (s.outcome == Outcome::Success) as u8 as f32,
-                ),
-            ],
-        )?;
-    }
-    let st = &it.stats;
-    writeln!(
-        logs.updates,
-        "{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
-        p.update,
-        p.global,
-        st.loss[0],
-        st.loss[1],
-        st.loss[2],
-        st.value_loss,
-        st.entropy,
-        st.mean_log_std,
-        st.cosine[0],
-        st.cosine[1],
-        st.cosine[2],
-        st.conflict[0],
-        st.conflict[1],
-        st.conflict[2],
-        it.sim_s,
-        it.learn_s
-    )?;
-    logs.updates.flush()?;
-    let scalars: Vec<(&str, f32)> = [
-        ("loss/progress", st.loss[0]),
-        ("loss/energy", st.loss[1]),
-        ("loss/smoothness", st.loss[2]),
-        ("loss/value", st.value_loss),
-        ("policy/entropy", st.entropy),
-        ("policy/mean_log_std", st.mean_log_std),
-        ("pcgrad/cos_pe", st.cosine[0]),
-        ("pcgrad/cos_ps", st.cosine[1]),
-        ("pcgrad/cos_es", st.cosine[2]),
-        ("pcgrad/conflict_pe", st.conflict[0]),
-        ("pcgrad/conflict_ps", st.conflict[1]),
-        ("pcgrad/conflict_es", st.conflict[2]),
-        ("time/sim_s", it.sim_s),
-        ("time/learn_s", it.learn_s),
-    ]
-    .into_iter()
-    .map(|(k, v)| (k, v as f32))
-    .collect();
-    logs.events.scalars(p.global, &scalars)?;
-    Ok(())
 }
 
 /// Writes `checkpoints/update-NNNNNNN.safetensors` atomically and prunes old ones.

@@ -93,11 +93,11 @@ complete() {
     [ -s "$1/episodes.csv" ] && [ "$(($(wc -l <"$1/episodes.csv") - 1))" -ge "${2:-$K}" ]
 }
 
-# eval_once DIR ARGS...: `eval ARGS --episodes N --no-traces --out DIR` (N: EVAL_EPISODES,
-# default K) unless DIR holds N episodes already or another process is evaluating it (it holds DIR.lock, a file that stays;
+# eval_once DIR ARGS...: `eval ARGS --episodes N --no-traces --out DIR` (N: FRONTIER_EVAL_N,
+# default K; not common.sh's EVAL_EPISODES, which other experiments use) unless DIR holds N episodes already or another process is evaluating it (it holds DIR.lock, a file that stays;
 # the lock is released when the process exits).
 eval_once() {
-    local dir=$1 lock n=${EVAL_EPISODES:-$K}
+    local dir=$1 lock n=${FRONTIER_EVAL_N:-$K}
     shift
     complete "$dir" "$n" && return
     mkdir -p "$(dirname "$dir")"
@@ -112,6 +112,7 @@ eval_once() {
         { say "eval $dir failed: $(tail -1 "$dir.log")"; exec {lock}>&-; return 1; }
     rm -f "$dir.log"
     exec {lock}>&-
+    complete "$dir" "$n" || { say "eval $dir: fewer than $n episodes written"; return 1; }
 }
 
 # eval_run RUN: the protocol's two evaluations of the finished run RUN (relative to S; none
@@ -180,7 +181,7 @@ stage_neighbours() {
 
 # Exploratory (module header): each done run's policy snapshots, sampled, KC episodes each.
 stage_curve() {
-    local run f EVAL_EPISODES=$KC
+    local run f FRONTIER_EVAL_N=$KC
     for run in $(done_runs); do
         for f in "$S/$run"/policies/update-*.safetensors; do
             [ -f "$f" ] || continue

@@ -13,6 +13,7 @@ use std::path::Path;
 
 use super::data::{Episode, read_episodes};
 use super::error::Result;
+use super::frontier::read_eval;
 use super::sweep_table::SweepRow;
 
 /// Bins per run (tenths of the run).
@@ -83,19 +84,14 @@ fn snapshots(dir: &Path) -> Result<Vec<(u64, Bin)>> {
         let Some(update) = name.strip_prefix("update-").and_then(|u| u.parse().ok()) else {
             continue;
         };
-        let path = entry.path().join("episodes.csv");
-        if !path.exists() {
-            continue;
+        // The protocol's evaluation reader: the same files, the same counts.
+        if let Some(e) = read_eval(&entry.path())? {
+            let bin = Bin {
+                successes: e.successes,
+                episodes: e.episodes,
+            };
+            out.push((update, bin));
         }
-        let episodes = read_episodes(&path, false)?;
-        let successes = episodes.iter().filter(|e| e.outcome == "success").count();
-        out.push((
-            update,
-            Bin {
-                successes,
-                episodes: episodes.len(),
-            },
-        ));
     }
     out.sort_by_key(|s| s.0);
     Ok(out)

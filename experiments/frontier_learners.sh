@@ -10,9 +10,13 @@
 #   protocol's seed-major order (seed 1 of variants 0-7, then seed 2, ...), each run evaluated
 #   (as the eval stage) as soon as it has finished. With FRONTIER_SLURM=1 it writes the Slurm
 #   array and submits it instead, every run at once. With FRONTIER_EVAL=later it leaves the
-#   evaluations to an eval-follow stage running beside it (on two cores: one training run with
-#   two threads, the evaluations with one), so that training never waits for them. A task
+#   evaluations to an eval-follow stage running beside it, so that training never waits for
+#   them. A task
 #   listed in SWEEP_DIR/device-claims is skipped: scripts/device-sweep runs it on a GPU machine.
+#   Several train stages may run side by side: each takes the next task no other holds (flock
+#   on SWEEP_DIR/logs/taskI.lock). On two cores, two of them with RAYON_NUM_THREADS=1 and
+#   their own evaluations keep both cores busy without oversubscribing them
+#   (docs/controllability.md, "Running it").
 # - eval: every finished run, 40 episodes at seed 201 on 4 environments, once sampled and once
 #   with the mean action. Output goes to SWEEP_DIR/eval/<run>/{sampled,deterministic}.
 # - eval-follow (not in the default list): the eval stage again every 5 minutes until no run
@@ -56,6 +60,27 @@ done_runs() {
     awk -F, 'NR > 1 && $3 == "done" { print $4 }' "$S/sweep.csv"
 }
 
+# train_task I: trains sweep task I unless another worker holds it (flock on
+# logs/taskI.lock, released when this process exits or the task ends), so several train
+# stages can run side by side, each taking the next free task. Fails when the task was not
+# trained here (held elsewhere, stopped or failed).
+train_task() {
+    local i=$1 lock
+    exec {lock}>"$S/logs/task$i.lock"
+    flock -n "$lock" || { say "train: task $i is held by another worker"; exec {lock}>&-; return 1; }
+    # It may have finished while this worker waited to open the lock.
+    fluxswarm sweep --status --out "$S" >/dev/null
+    if [ "$(awk -F, -v r=$((i + 2)) 'NR == r { print $3 }' "$S/sweep.csv")" = done ]; then
+        exec {lock}>&-
+        return 0
+    fi
+    say "train: task $i"
+    fluxswarm sweep --task "$i" --out "$S" >>"$S/logs/task$i.log" 2>&1 ||
+        { say "train: task $i stopped or failed (see $S/logs/task$i.log)"; exec {lock}>&-; return 1; }
+    exec {lock}>&-
+    fluxswarm sweep --status --out "$S" >/dev/null
+}
+
 stage_train() {
     [ -s "$S/sweep.toml" ] || fluxswarm sweep "$SPEC" --out "$S" --slurm >/dev/null
     fluxswarm sweep --status --out "$S" >/dev/null
@@ -77,10 +102,7 @@ stage_train() {
                     say "train: task $i is claimed by a GPU machine (scripts/device-sweep); skipped until merged"
                     continue
                 fi
-                say "train: task $i (point $p, seed index $s)"
-                fluxswarm sweep --task "$i" --out "$S" >>"$S/logs/task$i.log" 2>&1 ||
-                    { say "train: task $i stopped or failed (see $S/logs/task$i.log)"; continue; }
-                fluxswarm sweep --status --out "$S" >/dev/null
+                train_task "$i" || continue
             fi
             [ "${FRONTIER_EVAL:-now}" = later ] && continue
             eval_run "$(awk -F, -v r=$((i + 2)) 'NR == r && $3 == "done" { print $4 }' "$S/sweep.csv")"

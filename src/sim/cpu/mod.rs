@@ -31,6 +31,8 @@ mod sample_avx2;
 pub mod simd;
 pub mod stages;
 pub(crate) mod stencil;
+#[cfg(target_arch = "x86_64")]
+mod thomas_avx2;
 pub mod timing;
 
 pub use batch::CpuBatch;
@@ -91,6 +93,8 @@ pub struct Scratch {
     columns: Vec<f32>,
     /// The FFT plans of the y-transforms on tall grids.
     fast_y: Option<pressure::FastY>,
+    /// The Thomas factors interleaved for the AVX2 sweeps, remade every control step.
+    sweep: Vec<f32>,
     /// Take the plain path even where AVX2 is present ([`Scratch::portable`]).
     portable: bool,
 }
@@ -275,6 +279,11 @@ fn step_env_with<const AVX2: bool>(
     s.u_out.resize(d.n_u(), 0.0);
     s.v_out.resize(d.n_v(), 0.0);
     s.modes.resize(d.n_c(), 0.0);
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        let tables = (d.ny * d.ny, d.ny * d.ny + d.ny * d.nx);
+        thomas_avx2::interleave(d.nx, d.ny, poisson, tables, &mut s.sweep);
+    }
     let swarm = !env.members.is_empty();
     // Without a swarm the body field is fixed for the control step; with one, each substep
     // repaints it, clearing only what the last substep painted.
@@ -320,13 +329,11 @@ fn step_env_with<const AVX2: bool>(
             fast,
         );
         clock.lap(PressureRhs);
-        pressure::solve(d, poisson, &mut s.modes);
+        pressure::solve::<AVX2>(d, poisson, &s.sweep, &mut s.modes);
         clock.lap(PressureSolve);
         pressure::back(d, poisson, &s.modes, env.p, columns, fast);
         clock.lap(PressureBack);
-        project::project(d, env.p, u_out, v_out);
-        env.u.copy_from_slice(u_out);
-        env.v.copy_from_slice(v_out);
+        project::project(d, env.p, (u_out, v_out), env.u, env.v);
         clock.lap(Project);
         if swarm {
             let (m, a) = (&mut *env.members, env.actions);

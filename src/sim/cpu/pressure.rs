@@ -195,14 +195,50 @@ fn rhs_columns<const N: usize>(
 /// Modes swept side by side: their recurrences' add and multiply latencies overlap.
 const SWEEP_LANES: usize = 8;
 
-/// The Thomas sweeps of every mode, in place on `modes`, `SWEEP_LANES` modes at a time so that their
-/// independent recurrences overlap instead of waiting on each other's latency.
+/// The Thomas sweeps of every mode, in place on `modes`. With `AVX2` (the caller has checked
+/// [`super::simd::avx2`]) the whole groups of eight modes go through
+/// [`super::thomas_avx2::sweep`], whose interleaved tables `sweep` holds
+/// ([`super::thomas_avx2::interleave`]); the other modes, and every mode without AVX2, go
+/// `SWEEP_LANES` at a time so that their independent recurrences overlap instead of waiting
+/// on each other's latency. Both give the same bits.
 #[inline(always)] // into the step's vector-path instances (`super::simd`)
-pub(crate) fn solve(d: &Dim, poisson: &[f32], modes: &mut [f32]) {
+pub(crate) fn solve<const AVX2: bool>(d: &Dim, poisson: &[f32], sweep: &[f32], modes: &mut [f32]) {
     let (nx, ny) = (d.nx, d.ny);
     let dx2 = d.p.dx * d.p.dx;
-    let (c_at, m_at) = (ny * ny, ny * ny + ny * nx);
+    #[allow(unused_mut)] // set on x86-64 only
     let mut k0 = 0;
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        use super::thomas_avx2::{LANES, sweep as avx2};
+        let groups = ny / LANES;
+        // Up to four groups side by side (more would not fit the registers).
+        let size = groups.div_ceil(groups.div_ceil(4).max(1));
+        let mut g0 = 0;
+        while g0 < groups {
+            let n = size.min(groups - g0);
+            // SAFETY: the caller has checked that the processor has AVX2.
+            unsafe {
+                match n {
+                    1 => avx2::<1>(nx, ny, dx2, sweep, g0, modes),
+                    2 => avx2::<2>(nx, ny, dx2, sweep, g0, modes),
+                    3 => avx2::<3>(nx, ny, dx2, sweep, g0, modes),
+                    _ => avx2::<4>(nx, ny, dx2, sweep, g0, modes),
+                }
+            }
+            g0 += n;
+        }
+        k0 = groups * LANES;
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = sweep;
+    solve_from(d, poisson, k0, modes, dx2);
+}
+
+/// The plain sweeps of modes k0 .. ny, `SWEEP_LANES` at a time.
+#[inline(always)]
+fn solve_from(d: &Dim, poisson: &[f32], mut k0: usize, modes: &mut [f32], dx2: f32) {
+    let (nx, ny) = (d.nx, d.ny);
+    let (c_at, m_at) = (ny * ny, ny * ny + ny * nx);
     while k0 < ny {
         let lanes = (ny - k0).min(SWEEP_LANES);
         let mut prev = [0.0f32; SWEEP_LANES];
@@ -333,10 +369,15 @@ mod tests {
 
     /// A grid of 13 x ny cells of 0.1 mm, no swarm.
     fn dim(ny: u32) -> (Dim, Vec<f32>) {
+        dim_nx(13, ny)
+    }
+
+    /// A grid of nx x ny cells of 0.1 mm (nx at least 11), no swarm.
+    fn dim_nx(nx: u32, ny: u32) -> (Dim, Vec<f32>) {
         let sets: Vec<String> = [
-            "domain.nx=13".to_string(),
+            format!("domain.nx={nx}"),
             format!("domain.ny={ny}"),
-            "domain.length_m=0.0013".into(),
+            format!("domain.length_m={}", nx as f64 * 1e-4),
             format!("domain.height_m={}", ny as f64 * 1e-4),
             "domain.success_x_m=0.0003".into(),
             "domain.failure_x_m=0.001".into(),
@@ -392,6 +433,39 @@ mod tests {
             assert!(e < 2e-6, "back at ny = {ny}: {e:e}");
             let taken = fast_y(&d, &mut None).is_some();
             assert_eq!(taken, d.ny >= FAST_Y_MIN, "ny = {ny}");
+        }
+    }
+
+    /// The AVX2 Thomas sweeps give the plain sweeps' bits, on heights with whole groups of
+    /// eight modes, a remainder, or neither, and lengths with and without columns past the
+    /// last tile of eight.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_sweeps_give_the_plain_sweeps_bits() {
+        if !super::super::simd::avx2() {
+            eprintln!("no AVX2 on this processor: only the plain sweeps exist here");
+            return;
+        }
+        let mut sweep = Vec::new();
+        for (nx, ny) in [
+            (11, 7),
+            (16, 8),
+            (13, 9),
+            (21, 17),
+            (40, 32),
+            (29, 43),
+            (64, 40),
+        ] {
+            let (d, poisson) = dim_nx(nx, ny);
+            let rhs = noise(d.n_c(), nx * ny);
+            let (mut plain, mut avx2) = (rhs.clone(), rhs);
+            solve::<false>(&d, &poisson, &[], &mut plain);
+            let tables = (d.ny * d.ny, d.ny * d.ny + d.ny * d.nx);
+            super::super::thomas_avx2::interleave(d.nx, d.ny, &poisson, tables, &mut sweep);
+            solve::<true>(&d, &poisson, &sweep, &mut avx2);
+            assert!(plain.iter().any(|x| *x != 0.0));
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&avx2), bits(&plain), "{nx} x {ny}");
         }
     }
 }

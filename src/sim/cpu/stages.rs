@@ -75,7 +75,7 @@ pub fn pressure_rhs(p: &GpuParams, poisson: &[f32], u: &[f32], v: &[f32]) -> (Ve
 pub fn pressure_solve(p: &GpuParams, poisson: &[f32], modes: &mut [f32]) {
     let d = Dim::new(p);
     for m in modes.chunks_mut(d.n_c()) {
-        pressure::solve(&d, poisson, m);
+        pressure::solve::<false>(&d, poisson, &[], m);
     }
 }
 
@@ -101,7 +101,7 @@ pub fn project(
             &mut Vec::new(),
             &mut None,
         );
-        proj::project(
+        proj::project_in_place(
             &d,
             pe,
             &mut u[e * nu..(e + 1) * nu],

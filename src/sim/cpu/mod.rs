@@ -24,6 +24,8 @@ pub mod diagnostics;
 pub mod diffuse;
 pub mod members;
 pub mod pressure;
+#[cfg(target_arch = "x86_64")]
+mod pressure_avx2;
 pub mod project;
 mod sample;
 #[cfg(target_arch = "x86_64")]
@@ -31,8 +33,6 @@ mod sample_avx2;
 pub mod simd;
 pub mod stages;
 pub(crate) mod stencil;
-#[cfg(target_arch = "x86_64")]
-mod thomas_avx2;
 pub mod timing;
 
 pub use batch::CpuBatch;
@@ -282,7 +282,7 @@ fn step_env_with<const AVX2: bool>(
     #[cfg(target_arch = "x86_64")]
     if AVX2 {
         let tables = (d.ny * d.ny, d.ny * d.ny + d.ny * d.nx);
-        thomas_avx2::interleave(d.nx, d.ny, poisson, tables, &mut s.sweep);
+        pressure_avx2::interleave(d.nx, d.ny, poisson, tables, &mut s.sweep);
     }
     let swarm = !env.members.is_empty();
     // Without a swarm the body field is fixed for the control step; with one, each substep
@@ -331,7 +331,7 @@ fn step_env_with<const AVX2: bool>(
         clock.lap(PressureRhs);
         pressure::solve::<AVX2>(d, poisson, &s.sweep, &mut s.modes);
         clock.lap(PressureSolve);
-        pressure::back(d, poisson, &s.modes, env.p, columns, fast);
+        pressure::back::<AVX2>(d, poisson, &s.modes, env.p, columns, fast);
         clock.lap(PressureBack);
         project::project(d, env.p, (u_out, v_out), env.u, env.v);
         clock.lap(Project);

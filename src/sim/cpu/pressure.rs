@@ -197,8 +197,8 @@ const SWEEP_LANES: usize = 8;
 
 /// The Thomas sweeps of every mode, in place on `modes`. With `AVX2` (the caller has checked
 /// [`super::simd::avx2`]) the whole groups of eight modes go through
-/// [`super::thomas_avx2::sweep`], whose interleaved tables `sweep` holds
-/// ([`super::thomas_avx2::interleave`]); the other modes, and every mode without AVX2, go
+/// [`super::pressure_avx2::sweep`], whose interleaved tables `sweep` holds
+/// ([`super::pressure_avx2::interleave`]); the other modes, and every mode without AVX2, go
 /// `SWEEP_LANES` at a time so that their independent recurrences overlap instead of waiting
 /// on each other's latency. Both give the same bits.
 #[inline(always)] // into the step's vector-path instances (`super::simd`)
@@ -209,7 +209,7 @@ pub(crate) fn solve<const AVX2: bool>(d: &Dim, poisson: &[f32], sweep: &[f32], m
     let mut k0 = 0;
     #[cfg(target_arch = "x86_64")]
     if AVX2 {
-        use super::thomas_avx2::{LANES, sweep as avx2};
+        use super::pressure_avx2::{LANES, sweep as avx2};
         let groups = ny / LANES;
         // Up to four groups side by side (more would not fit the registers).
         let size = groups.div_ceil(groups.div_ceil(4).max(1));
@@ -263,9 +263,11 @@ fn solve_from(d: &Dim, poisson: &[f32], mut k0: usize, modes: &mut [f32], dx2: f
     }
 }
 
-/// The pressure p [ny][nx] from its modes (`mode` is scratch, as in [`rhs`]).
+/// The pressure p [ny][nx] from its modes (`mode` is scratch, as in [`rhs`]). With `AVX2` (the
+/// caller has checked [`super::simd::avx2`]) the whole blocks of eight columns go through
+/// [`super::pressure_avx2::back_block`], which gives the same bits.
 #[inline(always)] // into the step's vector-path instances (`super::simd`)
-pub(crate) fn back(
+pub(crate) fn back<const AVX2: bool>(
     d: &Dim,
     poisson: &[f32],
     modes: &[f32],
@@ -278,7 +280,17 @@ pub(crate) fn back(
     }
     mode.resize(d.ny * SMALL_BLOCK, 0.0);
     let full = d.nx / SMALL_BLOCK * SMALL_BLOCK;
-    for i0 in (0..full).step_by(SMALL_BLOCK) {
+    #[allow(unused_mut)] // advanced on x86-64 only
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        for i0 in (0..full).step_by(SMALL_BLOCK) {
+            // SAFETY: the caller has checked that the processor has AVX2.
+            unsafe { super::pressure_avx2::back_block(d.nx, d.ny, poisson, modes, pres, i0) };
+        }
+        done = full;
+    }
+    for i0 in (done..full).step_by(SMALL_BLOCK) {
         back_columns::<SMALL_BLOCK>(d, poisson, modes, pres, mode, i0);
     }
     for i0 in full..d.nx {
@@ -436,12 +448,12 @@ mod tests {
         }
     }
 
-    /// The AVX2 Thomas sweeps give the plain sweeps' bits, on heights with whole groups of
-    /// eight modes, a remainder, or neither, and lengths with and without columns past the
-    /// last tile of eight.
+    /// The AVX2 Thomas sweeps and back-transform give the plain ones' bits, on heights with
+    /// whole groups of eight modes, a remainder, or neither (odd and even), and lengths with
+    /// and without columns past the last tile or block of eight.
     #[cfg(target_arch = "x86_64")]
     #[test]
-    fn avx2_sweeps_give_the_plain_sweeps_bits() {
+    fn avx2_sweeps_and_back_transform_give_the_plain_bits() {
         if !super::super::simd::avx2() {
             eprintln!("no AVX2 on this processor: only the plain sweeps exist here");
             return;
@@ -461,11 +473,30 @@ mod tests {
             let (mut plain, mut avx2) = (rhs.clone(), rhs);
             solve::<false>(&d, &poisson, &[], &mut plain);
             let tables = (d.ny * d.ny, d.ny * d.ny + d.ny * d.nx);
-            super::super::thomas_avx2::interleave(d.nx, d.ny, &poisson, tables, &mut sweep);
+            super::super::pressure_avx2::interleave(d.nx, d.ny, &poisson, tables, &mut sweep);
             solve::<true>(&d, &poisson, &sweep, &mut avx2);
             assert!(plain.iter().any(|x| *x != 0.0));
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(&avx2), bits(&plain), "{nx} x {ny}");
+            assert_eq!(bits(&avx2), bits(&plain), "sweeps at {nx} x {ny}");
+            let (mut p_plain, mut p_avx2) = (vec![0.0; d.n_c()], vec![0.0; d.n_c()]);
+            back::<false>(
+                &d,
+                &poisson,
+                &plain,
+                &mut p_plain,
+                &mut Vec::new(),
+                &mut None,
+            );
+            back::<true>(
+                &d,
+                &poisson,
+                &plain,
+                &mut p_avx2,
+                &mut Vec::new(),
+                &mut None,
+            );
+            assert!(p_plain.iter().all(|x| x.is_finite() && *x != 0.0));
+            assert_eq!(bits(&p_avx2), bits(&p_plain), "back at {nx} x {ny}");
         }
     }
 }

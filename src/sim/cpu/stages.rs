@@ -93,7 +93,7 @@ pub fn project(
     let mut pres = vec![0.0; modes.len()];
     for e in 0..p.n_env as usize {
         let pe = &mut pres[e * nc..(e + 1) * nc];
-        pressure::back(
+        pressure::back::<false>(
             &d,
             poisson,
             &modes[e * nc..(e + 1) * nc],

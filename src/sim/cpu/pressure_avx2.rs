@@ -1,16 +1,18 @@
-//! [`super::pressure::solve`]'s Thomas sweeps in AVX2, eight modes to a register. The modes
-//! and factor tables are stored `[k][i]` (a mode's row along x), and the sweep runs along x,
-//! so a tile of 8 modes x 8 columns is loaded as eight rows, transposed in registers to eight
-//! columns of 8 modes, swept column by column, and transposed back. The groups of eight modes
-//! are swept side by side, so that their recurrences' latencies overlap. Per cell and mode
-//! the same IEEE operations in the same order as the plain sweep (no fused multiply-add):
-//! forward y_i = (r_i dx^2 - y_(i-1)) / m_i with the stored 1/m_i, back
-//! y_i = y_i - c'_i y_(i+1); so the same bits.
+//! Two stages of the pressure solve in AVX2, each with the same IEEE operations in the same
+//! order as its plain code (no fused multiply-add), so the same bits:
+//! - [`sweep`]: [`super::pressure::solve`]'s Thomas sweeps, eight modes to a register. The modes
+//!   and factor tables are stored `[k][i]` (a mode's row along x), and the sweep runs along x,
+//!   so a tile of 8 modes x 8 columns is loaded as eight rows, transposed in registers to
+//!   eight columns of 8 modes, swept column by column, and transposed back. The groups of eight
+//!   modes are swept side by side, so that their recurrences' latencies overlap. Forward
+//!   y_i = (r_i dx^2 - y_(i-1)) / m_i with the stored 1/m_i, back y_i = y_i - c'_i y_(i+1).
+//! - [`back_block`]: [`super::pressure::back`]'s p = Q p_k for eight columns at a time, four
+//!   output rows' even and odd mode sums (eight registers) side by side.
 //!
 //! Shapes: modes `[ny][nx]`; the factor tables of the solver's table
 //! ([`crate::sim::poisson::PoissonTables::to_gpu`], c' and 1/m `[ny][nx]` each) are
 //! interleaved once per control step into `[ny / 8][nx][8]` each ([`interleave`]), so a
-//! column's eight factors are one load.
+//! column's eight factors are one load; Q `[ny][ny]` and p `[ny][nx]`.
 
 use std::arch::x86_64::*;
 
@@ -213,6 +215,69 @@ pub(super) fn sweep<const G: usize>(
                 }
                 store_tile(modes, nx, k0, i, r);
             }
+        }
+    }
+}
+
+/// p = Q p_k for the eight columns i0 .. i0 + 8 (callable where AVX2 is present), as
+/// [`super::pressure::back`]'s plain blocks do it: per output row j < ceil(ny / 2), the even
+/// and the odd modes' sums, each from zero in mode order, then p_j = even + odd and its mirror
+/// p_(ny-1-j) = even - odd (p_j = even for the middle row of an odd height). Four rows at a
+/// time, their eight sums side by side. `q` is the solver's table Q `[ny][ny]`.
+#[target_feature(enable = "avx2")]
+pub(super) fn back_block(
+    nx: usize,
+    ny: usize,
+    q: &[f32],
+    modes: &[f32],
+    pres: &mut [f32],
+    i0: usize,
+) {
+    const ROWS: usize = 4;
+    let rows = ny.div_ceil(2);
+    // SAFETY: this function runs where AVX2 is present (its target feature), which the
+    // helpers need.
+    unsafe {
+        let mode = |k: usize| load(&modes[k * nx + i0..]);
+        let mut j0 = 0;
+        while j0 < rows {
+            let at: [usize; ROWS] = std::array::from_fn(|r| (j0 + r).min(rows - 1) * ny);
+            let mut even = [_mm256_setzero_ps(); ROWS];
+            let mut odd = [_mm256_setzero_ps(); ROWS];
+            let mut k = 0;
+            while k + 1 < ny {
+                let (me, mo) = (mode(k), mode(k + 1));
+                for r in 0..ROWS {
+                    let (qe, qo) = (q[at[r] + k], q[at[r] + k + 1]);
+                    even[r] = _mm256_add_ps(even[r], _mm256_mul_ps(_mm256_set1_ps(qe), me));
+                    odd[r] = _mm256_add_ps(odd[r], _mm256_mul_ps(_mm256_set1_ps(qo), mo));
+                }
+                k += 2;
+            }
+            if k < ny {
+                let me = mode(k);
+                for r in 0..ROWS {
+                    let qe = _mm256_set1_ps(q[at[r] + k]);
+                    even[r] = _mm256_add_ps(even[r], _mm256_mul_ps(qe, me));
+                }
+            }
+            for r in 0..ROWS.min(rows - j0) {
+                let j = j0 + r;
+                let mirror = ny - 1 - j;
+                let mut put = |row: usize, x: __m256| {
+                    let v: &mut [f32; LANES] = (&mut pres[row * nx + i0..][..LANES])
+                        .try_into()
+                        .expect("a row");
+                    _mm256_storeu_ps(v.as_mut_ptr(), x)
+                };
+                if mirror == j {
+                    put(j, even[r]);
+                } else {
+                    put(j, _mm256_add_ps(even[r], odd[r]));
+                    put(mirror, _mm256_sub_ps(even[r], odd[r]));
+                }
+            }
+            j0 += ROWS;
         }
     }
 }

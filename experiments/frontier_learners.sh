@@ -11,8 +11,8 @@
 #   (as the eval stage) as soon as it has finished. With FRONTIER_SLURM=1 it writes the Slurm
 #   array and submits it instead, every run at once. With FRONTIER_EVAL=later it leaves the
 #   evaluations to an eval-follow stage running beside it, so that training never waits for
-#   them. A task
-#   listed in SWEEP_DIR/device-claims is skipped: scripts/device-sweep runs it on a GPU machine.
+#   them. A task listed in SWEEP_DIR/device-claims is skipped: scripts/device-sweep runs it on
+#   a GPU machine.
 #   Several train stages may run side by side: each takes the next task no other holds (flock
 #   on SWEEP_DIR/logs/taskI.lock). On two cores, two of them with RAYON_NUM_THREADS=1 and
 #   their own evaluations keep both cores busy without oversubscribing them
@@ -60,6 +60,11 @@ done_runs() {
     awk -F, 'NR > 1 && $3 == "done" { print $4 }' "$S/sweep.csv"
 }
 
+# task_field I COLUMN: sweep.csv's COLUMN (3: status, 4: the run's directory) of task I.
+task_field() {
+    awk -F, -v r=$(($1 + 2)) -v c="$2" 'NR == r { print $c }' "$S/sweep.csv"
+}
+
 # train_task I: trains sweep task I unless another worker holds it (flock on
 # logs/taskI.lock, released when this process exits or the task ends), so several train
 # stages can run side by side, each taking the next free task. Fails when the task was not
@@ -70,7 +75,7 @@ train_task() {
     flock -n "$lock" || { say "train: task $i is held by another worker"; exec {lock}>&-; return 1; }
     # It may have finished while this worker waited to open the lock.
     fluxswarm sweep --status --out "$S" >/dev/null
-    if [ "$(awk -F, -v r=$((i + 2)) 'NR == r { print $3 }' "$S/sweep.csv")" = done ]; then
+    if [ "$(task_field "$i" 3)" = done ]; then
         exec {lock}>&-
         return 0
     fi
@@ -97,7 +102,7 @@ stage_train() {
             i=$((p * seeds + s))
             # A run done before (in an earlier session) is evaluated now if it was not yet:
             # eval_once skips complete evaluations.
-            if [ "$(awk -F, -v r=$((i + 2)) 'NR == r { print $3 }' "$S/sweep.csv")" != done ]; then
+            if [ "$(task_field "$i" 3)" != done ]; then
                 if grep -qx "$i" "$S/device-claims" 2>/dev/null; then
                     say "train: task $i is claimed by a GPU machine (scripts/device-sweep); skipped until merged"
                     continue
@@ -105,7 +110,7 @@ stage_train() {
                 train_task "$i" || continue
             fi
             [ "${FRONTIER_EVAL:-now}" = later ] && continue
-            eval_run "$(awk -F, -v r=$((i + 2)) 'NR == r && $3 == "done" { print $4 }' "$S/sweep.csv")"
+            [ "$(task_field "$i" 3)" != done ] || eval_run "$(task_field "$i" 4)"
         done
     done
 }

@@ -6,13 +6,14 @@
 //! Mirrors `shaders/advect.wgsl`. Shapes: u, u_out `[ny][nx+1]`; v, v_out `[ny+1][nx]`;
 //! body `[ny][nx]` (chi, u_body, v_body, 0); w and the predictor padded with their ghosts
 //! (`sample`). Works a row of faces at a time: departure points from the face
-//! velocities, then the row's samples (`sample_row`), then the update. The Brinkman blend
+//! velocities, then the row's samples (`sample_row`) straight into the output row (or the
+//! predictor and its extrema), then the MacCormack update in place. The Brinkman blend
 //! visits only the cells of `solid` (every other cell has chi = 0, where it is the identity).
 
 use std::ops::Range;
 
 use super::diffuse::diffuse;
-use super::sample::{Departures, Face, Padded, sample_row};
+use super::sample::{Departures, Face, Padded, Sink, sample_row};
 use super::stencil::Dim;
 use crate::config::Advection;
 
@@ -116,18 +117,17 @@ pub(crate) fn advect<const AVX2: bool>(
         let out = &mut u_out[j * row + 1..(j + 1) * row];
         if mac {
             departures_u(d, u, v, j, -p.dt, r);
-            sample_row::<AVX2>(d, &s.hat_u, Face::U, j, 1, nx, r, false);
+            sample_row::<AVX2>(d, &s.hat_u, Face::U, j, 1, nx, r, Sink::values(out));
             let at = s.hat_u.at_u(1, j as isize);
             let (hat, w) = (&s.hat_u.data[at..at + nx], &s.w_u.data[at..at + nx]);
             let ext = j * row + 1..(j + 1) * row;
             let (lo, hi) = (&s.lo_u[ext.clone()], &s.hi_u[ext]);
             for n in 0..nx {
-                out[n] = limited(hat[n] + 0.5 * (w[n] - r.out[n]), lo[n], hi[n]);
+                out[n] = limited(hat[n] + 0.5 * (w[n] - out[n]), lo[n], hi[n]);
             }
         } else {
             departures_u(d, u, v, j, p.dt, r);
-            sample_row::<AVX2>(d, &s.w_u, Face::U, j, 1, nx, r, false);
-            out.copy_from_slice(&r.out[..nx]);
+            sample_row::<AVX2>(d, &s.w_u, Face::U, j, 1, nx, r, Sink::values(out));
         }
     }
     v_out[..nx].fill(0.0);
@@ -136,18 +136,17 @@ pub(crate) fn advect<const AVX2: bool>(
         let out = &mut v_out[j * nx..(j + 1) * nx];
         if mac {
             departures_v(d, u, v, j, -p.dt, r);
-            sample_row::<AVX2>(d, &s.hat_v, Face::V, j, 0, nx, r, false);
+            sample_row::<AVX2>(d, &s.hat_v, Face::V, j, 0, nx, r, Sink::values(out));
             let at = s.hat_v.at_v(0, j);
             let (hat, w) = (&s.hat_v.data[at..at + nx], &s.w_v.data[at..at + nx]);
             let ext = j * nx..(j + 1) * nx;
             let (lo, hi) = (&s.lo_v[ext.clone()], &s.hi_v[ext]);
             for n in 0..nx {
-                out[n] = limited(hat[n] + 0.5 * (w[n] - r.out[n]), lo[n], hi[n]);
+                out[n] = limited(hat[n] + 0.5 * (w[n] - out[n]), lo[n], hi[n]);
             }
         } else {
             departures_v(d, u, v, j, p.dt, r);
-            sample_row::<AVX2>(d, &s.w_v, Face::V, j, 0, nx, r, false);
-            out.copy_from_slice(&r.out[..nx]);
+            sample_row::<AVX2>(d, &s.w_v, Face::V, j, 0, nx, r, Sink::values(out));
         }
     }
     if let Some(rect) = solid {
@@ -172,13 +171,15 @@ fn predict<const AVX2: bool>(d: &Dim, u: &[f32], v: &[f32], s: &mut AdvectScratc
     let r = &mut s.row;
     for j in 0..ny {
         departures_u(d, u, v, j, dt, r);
-        sample_row::<AVX2>(d, &s.w_u, Face::U, j, 1, nx, r, true);
         let at = s.hat_u.at_u(0, j as isize);
         s.hat_u.data[at] = u[j * row];
-        s.hat_u.data[at + 1..at + 1 + nx].copy_from_slice(&r.out[..nx]);
         let ext = j * row + 1..(j + 1) * row;
-        s.lo_u[ext.clone()].copy_from_slice(&r.lo[..nx]);
-        s.hi_u[ext].copy_from_slice(&r.hi[..nx]);
+        let sink = Sink::with_extrema(
+            &mut s.hat_u.data[at + 1..at + 1 + nx],
+            &mut s.lo_u[ext.clone()],
+            &mut s.hi_u[ext],
+        );
+        sample_row::<AVX2>(d, &s.w_u, Face::U, j, 1, nx, r, sink);
     }
     s.hat_u.fill_ghosts_u(d);
     for j in [0, ny] {
@@ -187,12 +188,14 @@ fn predict<const AVX2: bool>(d: &Dim, u: &[f32], v: &[f32], s: &mut AdvectScratc
     }
     for j in 1..ny {
         departures_v(d, u, v, j, dt, r);
-        sample_row::<AVX2>(d, &s.w_v, Face::V, j, 0, nx, r, true);
         let at = s.hat_v.at_v(0, j);
-        s.hat_v.data[at..at + nx].copy_from_slice(&r.out[..nx]);
         let ext = j * nx..(j + 1) * nx;
-        s.lo_v[ext.clone()].copy_from_slice(&r.lo[..nx]);
-        s.hi_v[ext].copy_from_slice(&r.hi[..nx]);
+        let sink = Sink::with_extrema(
+            &mut s.hat_v.data[at..at + nx],
+            &mut s.lo_v[ext.clone()],
+            &mut s.hi_v[ext],
+        );
+        sample_row::<AVX2>(d, &s.w_v, Face::V, j, 0, nx, r, sink);
     }
     s.hat_v.fill_ghosts_v(d);
 }

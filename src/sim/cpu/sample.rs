@@ -80,35 +80,57 @@ impl Padded {
     }
 }
 
-/// One row's departure points and what sampling them gives.
+/// One row's departure points, and room for the chunks off the fast path.
 #[derive(Debug, Default, Clone)]
 pub(crate) struct Departures {
     pub x: Vec<f32>,
     pub y: Vec<f32>,
-    pub out: Vec<f32>,
-    /// The stencil's (min, max) per face, when asked for.
-    pub lo: Vec<f32>,
-    pub hi: Vec<f32>,
+    /// Offsets of the chunks that `sample_avx2` leaves to [`sample_chunk`].
+    pub far: Vec<usize>,
 }
 
 impl Departures {
     pub fn resize(&mut self, n: usize) {
-        for v in [
-            &mut self.x,
-            &mut self.y,
-            &mut self.out,
-            &mut self.lo,
-            &mut self.hi,
-        ] {
-            v.resize(n, 0.0);
-        }
+        self.x.resize(n, 0.0);
+        self.y.resize(n, 0.0);
+        self.far.resize(n / LANES + 1, 0);
     }
 }
 
-/// Samples `a` at the departure points of faces `first .. first + len` of row `j` (faces
-/// of the kind `face`), into `r.out[..len]`, and the stencil extrema into `r.lo`, `r.hi` when
-/// `want_extrema` is set; `AVX2`: by [`super::sample_avx2`] (the caller has checked
-/// [`super::simd::avx2`]).
+/// Where a row's samples go: `out[m]` for departure point m, and the stencil's (min, max)
+/// into `lo[m]`, `hi[m]` unless those are empty; written straight into the caller's fields.
+#[derive(Debug)]
+pub(crate) struct Sink<'a> {
+    pub out: &'a mut [f32],
+    pub lo: &'a mut [f32],
+    pub hi: &'a mut [f32],
+}
+
+impl<'a> Sink<'a> {
+    /// The samples only.
+    pub fn values(out: &'a mut [f32]) -> Self {
+        Sink {
+            out,
+            lo: &mut [],
+            hi: &mut [],
+        }
+    }
+
+    /// The samples and their stencils' extrema.
+    pub fn with_extrema(out: &'a mut [f32], lo: &'a mut [f32], hi: &'a mut [f32]) -> Self {
+        Sink { out, lo, hi }
+    }
+
+    /// Whether the extrema are wanted.
+    #[inline(always)]
+    pub fn extrema(&self) -> bool {
+        !self.lo.is_empty()
+    }
+}
+
+/// Samples `a` at the departure points `r.x[..len]`, `r.y[..len]` of faces `first .. first
+/// + len` of row `j` (faces of the kind `face`) into `sink` ([`Sink`]); `AVX2`: by
+/// [`super::sample_avx2`] (the caller has checked [`super::simd::avx2`]).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn sample_row<const AVX2: bool>(
@@ -119,23 +141,22 @@ pub(crate) fn sample_row<const AVX2: bool>(
     first: usize,
     len: usize,
     r: &mut Departures,
-    want_extrema: bool,
+    sink: Sink,
 ) {
     #[cfg(target_arch = "x86_64")]
     if AVX2 {
         // SAFETY: AVX2 is present (the caller's check).
-        return unsafe {
-            super::sample_avx2::sample_row(d, a, face, j, first, len, r, want_extrema)
-        };
+        return unsafe { super::sample_avx2::sample_row(d, a, face, j, first, len, r, sink) };
     }
+    let mut sink = sink;
     let last_fast = fast_end(d, face);
     let mut n = 0;
     while n + LANES <= len && first + n + LANES <= last_fast {
-        sample_chunk(d, a, face, j, first + n, n, r, want_extrema);
+        sample_chunk(d, a, face, j, first + n, n, r, &mut sink);
         n += LANES;
     }
     for m in n..len {
-        sample_one(d, a, face, m, r, want_extrema);
+        sample_one(d, a, face, m, r, &mut sink);
     }
 }
 
@@ -156,14 +177,14 @@ pub(super) fn sample_one(
     a: &Padded,
     face: Face,
     m: usize,
-    r: &mut Departures,
-    want_extrema: bool,
+    r: &Departures,
+    sink: &mut Sink,
 ) {
     let (corner, t) = corner(d, face, r.x[m], r.y[m]);
     let vals = gather(a, face, corner);
-    r.out[m] = bilerp(vals, t);
-    if want_extrema {
-        [r.lo[m], r.hi[m]] = extrema(vals);
+    sink.out[m] = bilerp(vals, t);
+    if sink.extrema() {
+        [sink.lo[m], sink.hi[m]] = extrema(vals);
     }
 }
 
@@ -199,8 +220,8 @@ pub(super) fn sample_chunk(
     j: usize,
     i: usize,
     n: usize,
-    r: &mut Departures,
-    want_extrema: bool,
+    r: &Departures,
+    sink: &mut Sink,
 ) {
     let mut c = [[0i32; 2]; LANES];
     let mut t = [[0.0f32; 2]; LANES];
@@ -252,11 +273,11 @@ pub(super) fn sample_chunk(
         }
     }
     for l in 0..LANES {
-        r.out[n + l] = bilerp(vals[l], t[l]);
+        sink.out[n + l] = bilerp(vals[l], t[l]);
     }
-    if want_extrema {
+    if sink.extrema() {
         for l in 0..LANES {
-            [r.lo[n + l], r.hi[n + l]] = extrema(vals[l]);
+            [sink.lo[n + l], sink.hi[n + l]] = extrema(vals[l]);
         }
     }
 }
@@ -333,16 +354,34 @@ mod tests {
                             r.x[m] = x0 + reach * jitter[2 * m] * d.p.dx;
                             r.y[m] = y0 + reach * jitter[2 * m + 1] * d.p.dy;
                         }
-                        sample_row::<false>(&d, &pad, face, j, first, len, &mut r, true);
-                        let portable = r.clone();
+                        let [mut out, mut lo, mut hi] = [0; 3].map(|_| vec![f32::NAN; len]);
+                        let sink = Sink::with_extrema(&mut out, &mut lo, &mut hi);
+                        sample_row::<false>(&d, &pad, face, j, first, len, &mut r, sink);
+                        let mut alone = vec![f32::NAN; len];
+                        sample_row::<false>(
+                            &d,
+                            &pad,
+                            face,
+                            j,
+                            first,
+                            len,
+                            &mut r,
+                            Sink::values(&mut alone),
+                        );
+                        assert_eq!(alone, out, "{face:?} samples without extrema");
                         #[cfg(target_arch = "x86_64")]
                         if crate::sim::cpu::simd::avx2() {
-                            sample_row::<true>(&d, &pad, face, j, first, len, &mut r, true);
+                            let [mut o, mut l, mut h] = [0; 3].map(|_| vec![f32::NAN; len]);
+                            let sink = Sink::with_extrema(&mut o, &mut l, &mut h);
+                            sample_row::<true>(&d, &pad, face, j, first, len, &mut r, sink);
                             for m in 0..len {
-                                assert_eq!(r.out[m].to_bits(), portable.out[m].to_bits());
-                                assert_eq!(r.lo[m].to_bits(), portable.lo[m].to_bits());
-                                assert_eq!(r.hi[m].to_bits(), portable.hi[m].to_bits());
+                                assert_eq!(o[m].to_bits(), out[m].to_bits());
+                                assert_eq!(l[m].to_bits(), lo[m].to_bits());
+                                assert_eq!(h[m].to_bits(), hi[m].to_bits());
                             }
+                            let sink = Sink::values(&mut alone);
+                            sample_row::<true>(&d, &pad, face, j, first, len, &mut r, sink);
+                            assert_eq!(alone, out, "{face:?} AVX2 samples without extrema");
                         }
                         for m in 0..len {
                             let (vals, t) = match face {
@@ -350,8 +389,8 @@ mod tests {
                                 Face::V => d.stencil_v(&field, r.x[m], r.y[m]),
                             };
                             let want = bilerp(vals, t);
-                            assert_eq!(r.out[m].to_bits(), want.to_bits(), "{face:?} {i}", i = m);
-                            assert_eq!([r.lo[m], r.hi[m]], extrema(vals));
+                            assert_eq!(out[m].to_bits(), want.to_bits(), "{face:?} {i}", i = m);
+                            assert_eq!([lo[m], hi[m]], extrema(vals));
                         }
                     }
                 }

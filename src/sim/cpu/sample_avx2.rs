@@ -1,11 +1,12 @@
 //! [`super::sample::sample_row`] in AVX2: eight faces at a time, the corners and weights
 //! computed in vector registers exactly as the plain code does (the same clamps, the same
 //! floor, the same `mix` products and sums, no fused multiply-add), so the samples and extrema
-//! have the same bits; chunks that are not on the fast path fall back to the plain chunk.
+//! have the same bits. Chunks that are not on the fast path are noted and left to the plain
+//! chunk after the loop, which thus makes no call and keeps its constants in registers.
 
 use std::arch::x86_64::*;
 
-use super::sample::{Departures, Face, LANES, Padded, fast_end, sample_chunk, sample_one};
+use super::sample::{Departures, Face, LANES, Padded, Sink, fast_end, sample_chunk, sample_one};
 use super::stencil::Dim;
 
 /// `floor_i32` of every lane (in range and finite; a NaN lane gives i32::MIN, which no fast
@@ -56,9 +57,10 @@ pub(super) fn sample_row(
     first: usize,
     len: usize,
     r: &mut Departures,
-    want_extrema: bool,
+    mut sink: Sink,
 ) {
     let p = &d.p;
+    let want_extrema = sink.extrema();
     let last_fast = fast_end(d, face);
     let (sx, sy) = (_mm256_set1_ps(p.inv_dx), _mm256_set1_ps(p.inv_dy));
     let (nxf, nyf) = (_mm256_set1_ps(d.nx as f32), _mm256_set1_ps(d.ny as f32));
@@ -71,6 +73,7 @@ pub(super) fn sample_row(
     let (minus1, izero) = (_mm256_set1_epi32(-1), _mm256_setzero_si256());
     let row_j = _mm256_set1_epi32(j as i32);
     let s = a.stride;
+    let mut far = 0;
     let mut n = 0;
     while n + LANES <= len && first + n + LANES <= last_fast {
         let i = first + n;
@@ -102,7 +105,8 @@ pub(super) fn sample_row(
             _mm256_or_si256(below, _mm256_cmpeq_epi32(oy, izero)),
         );
         if _mm256_movemask_ps(_mm256_castsi256_ps(near)) != 0xFF {
-            sample_chunk(d, a, face, j, i, n, r, want_extrema);
+            r.far[far] = n;
+            far += 1;
             n += LANES;
             continue;
         }
@@ -127,7 +131,7 @@ pub(super) fn sample_row(
         let v01 = _mm256_blendv_ps(r2.0, r1.0, below);
         let v11 = _mm256_blendv_ps(r2.1, r1.1, below);
         let out = mix(mix(v00, v10, tx), mix(v01, v11, tx), ty);
-        store(&mut r.out[n..], out);
+        store(&mut sink.out[n..], out);
         if want_extrema {
             let (mut lo, mut hi) = (
                 _mm256_set1_ps(f32::INFINITY),
@@ -137,12 +141,15 @@ pub(super) fn sample_row(
                 lo = _mm256_min_ps(v, lo);
                 hi = _mm256_max_ps(v, hi);
             }
-            store(&mut r.lo[n..], lo);
-            store(&mut r.hi[n..], hi);
+            store(&mut sink.lo[n..], lo);
+            store(&mut sink.hi[n..], hi);
         }
         n += LANES;
     }
+    for &m in &r.far[..far] {
+        sample_chunk(d, a, face, j, first + m, m, r, &mut sink);
+    }
     for m in n..len {
-        sample_one(d, a, face, m, r, want_extrema);
+        sample_one(d, a, face, m, r, &mut sink);
     }
 }

@@ -43,6 +43,16 @@
 #   config.toml and training episodes.csv (runs/<run>/), and the config.toml and episodes.csv
 #   of every complete evaluation, neighbour, curve point and comparator, in the layout `report --frontier`
 #   reads, then runs the report there (FRONTIER_RESULTS/report). No checkpoint is copied.
+# - restore (not in the default list): the reverse of results, for a fresh checkout whose
+#   SWEEP_DIR is gone (runs/ is not committed): every run FRONTIER_RESULTS/sweep.csv lists as
+#   done gets its directory back (config.toml, episodes.csv, policy.safetensors where results
+#   kept it) with a sweep-task.toml that says done, from the provenance columns; every
+#   complete evaluation, neighbour, curve point and comparator is copied back. Nothing that
+#   exists in SWEEP_DIR is overwritten, so it is safe to repeat. A restored run without a
+#   policy cannot be evaluated again (the neighbours stage says so and goes on).
+# The results stage also keeps each done run's policy.safetensors (about 280 KB; the actor and
+# normaliser, no optimiser state), so that the neighbours stage and the named seed's policy
+# survive a lost SWEEP_DIR.
 source "$(dirname "$0")/common.sh"
 cd "$ROOT"
 S=${1:-runs/frontier-learners}
@@ -240,6 +250,8 @@ stage_results() {
     for run in $(done_runs); do
         mkdir -p "$R/runs/$(basename "$run")"
         cp "$S/$run/config.toml" "$S/$run/episodes.csv" "$R/runs/$(basename "$run")/"
+        [ ! -f "$S/$run/policy.safetensors" ] ||
+            cp "$S/$run/policy.safetensors" "$R/runs/$(basename "$run")/"
     done
     for d in "$S"/eval/*/* "$S"/neighbours/*/* "$S"/comparators/*; do
         [ -d "$d" ] && copy_complete "$d" "$R/${d#"$S"/}"
@@ -251,11 +263,38 @@ stage_results() {
     say "results: $R (report: $R/report/frontier.md)"
 }
 
+stage_restore() {
+    local R=${FRONTIER_RESULTS:-assets/results/frontier_learners} dir commit backend threads host d n=0
+    [ -s "$R/sweep.csv" ] || { say "restore: $R/sweep.csv is missing; nothing to restore"; return 1; }
+    [ -s "$S/sweep.toml" ] || fluxswarm sweep "$SPEC" --out "$S" --slurm >/dev/null
+    fluxswarm sweep --status --out "$S" >/dev/null
+    # The provenance columns are the last four; the quoted overrides come before them.
+    while IFS='|' read -r dir commit backend threads host; do
+        if ! awk -F, -v d="$dir" 'NR > 1 && $4 == d { f = 1 } END { exit !f }' "$S/sweep.csv"; then
+            say "restore: $dir is not a run of $S's sweep; skipped"
+            continue
+        fi
+        [ ! -e "$S/$dir/sweep-task.toml" ] || continue
+        mkdir -p "$S/$dir"
+        cp "$R/runs/$(basename "$dir")"/* "$S/$dir/"
+        printf 'status = "done"\nhost = "%s"\nthreads = %s\nbackend = "%s"\ncommit = "%s"\n' \
+            "$host" "${threads:-0}" "$backend" "$commit" >"$S/$dir/sweep-task.toml"
+        n=$((n + 1))
+    done < <(awk -F, 'NR > 1 && $3 == "done" { print $4 "|" $(NF-3) "|" $(NF-2) "|" $(NF-1) "|" $NF }' "$R/sweep.csv")
+    for d in "$R"/eval/*/* "$R"/neighbours/*/* "$R"/curve/*/* "$R"/comparators/*; do
+        [ -s "$d/episodes.csv" ] && [ ! -e "$S/${d#"$R"/}" ] || continue
+        mkdir -p "$S/${d#"$R"/}"
+        cp "$d"/* "$S/${d#"$R"/}/"
+    done
+    fluxswarm sweep --status --out "$S"
+    say "restore: $n run(s) restored from $R"
+}
+
 for stage in "${stages[@]}"; do
     case $stage in
-        train | eval | eval-follow | comparators | neighbours | curve | report | results) "stage_$stage" ;;
+        train | eval | eval-follow | comparators | neighbours | curve | report | results | restore) "stage_$stage" ;;
         *)
-            echo "unknown stage '$stage' (train, eval, eval-follow, comparators, neighbours, curve, report, results)" >&2
+            echo "unknown stage '$stage' (train, eval, eval-follow, comparators, neighbours, curve, report, results, restore)" >&2
             exit 2
             ;;
     esac

@@ -13,6 +13,10 @@ use safetensors::tensor::{Dtype, SafeTensors, TensorView};
 /// Bumped whenever the set or meaning of the saved arrays changes.
 pub const FORMAT: u32 = 1;
 
+/// The trained policy alone (actor, normaliser, configuration) in a run directory, rewritten
+/// with every checkpoint; `eval --checkpoint` and `rollout --policy` take it like a checkpoint.
+pub const POLICY_FILE: &str = "policy.safetensors";
+
 /// Why a checkpoint could not be written, read or used.
 #[derive(Debug, thiserror::Error)]
 pub enum CheckpointError {
@@ -334,7 +338,8 @@ pub fn list(dir: &Path) -> Vec<PathBuf> {
 }
 
 /// `path` if it is a file; for a directory, the newest checkpoint in `path/checkpoints/` (a
-/// run directory) or in `path` itself.
+/// run directory) or in `path` itself, else its `policy.safetensors` (a run whose checkpoints
+/// are gone, e.g. one restored from committed results).
 pub fn locate(path: &Path) -> Result<PathBuf, CheckpointError> {
     if path.is_file() {
         return Ok(path.to_path_buf());
@@ -349,8 +354,11 @@ pub fn locate(path: &Path) -> Result<PathBuf, CheckpointError> {
     list(&path.join("checkpoints"))
         .into_iter()
         .chain(list(path))
+        .chain(Some(path.join(POLICY_FILE)).filter(|p| p.is_file()))
         .next()
-        .ok_or_else(|| not_found("no update-*.safetensors checkpoint in it or its checkpoints/"))
+        .ok_or_else(|| {
+            not_found("no update-*.safetensors checkpoint in it or its checkpoints/, and no policy.safetensors")
+        })
 }
 
 #[cfg(test)]
@@ -445,6 +453,20 @@ mod tests {
         );
         let e = locate(&dir.path().join("nothing")).unwrap_err().to_string();
         assert!(e.contains("no such file"), "{e}");
+    }
+
+    #[test]
+    fn a_run_directory_without_checkpoints_falls_back_to_its_policy_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let e = locate(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("no policy.safetensors"), "{e}");
+        sample().save(&dir.path().join(POLICY_FILE)).unwrap();
+        assert_eq!(locate(dir.path()).unwrap(), dir.path().join(POLICY_FILE));
+        // A checkpoint, when there is one, is newer than or the same as the policy file.
+        let ck = dir.path().join("checkpoints");
+        std::fs::create_dir_all(&ck).unwrap();
+        sample().save(&ck.join(file_name(7))).unwrap();
+        assert_eq!(locate(dir.path()).unwrap(), ck.join(file_name(7)));
     }
 
     #[test]

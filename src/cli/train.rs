@@ -70,9 +70,7 @@ pub struct TrainArgs {
     pub policy_every: u64,
 }
 
-/// The trained policy alone (actor, normaliser, configuration), rewritten with every
-/// checkpoint; `eval --checkpoint` and `rollout --policy` take it like a checkpoint.
-pub const POLICY_FILE: &str = "policy.safetensors";
+pub use fluxswarm_gpu::checkpoint::POLICY_FILE;
 
 /// Checkpoints kept in `checkpoints/` (older ones are deleted after a newer one is written).
 const KEEP: usize = 3;

@@ -135,3 +135,45 @@ impl ConfigArgs {
         Ok(opened)
     }
 }
+
+/// The error and its causes joined by ": ", leaving out a cause whose text the message
+/// already holds (typed errors that name their source, like `CheckpointError::Read`).
+pub fn error_chain(e: &anyhow::Error) -> String {
+    let mut message = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if message.contains(&text) {
+            continue;
+        }
+        if !message.is_empty() {
+            message.push_str(": ");
+        }
+        message.push_str(&text);
+    }
+    message
+}
+
+#[cfg(test)]
+mod tests {
+    use super::error_chain;
+
+    #[test]
+    fn a_cause_already_in_the_message_is_not_repeated() {
+        let io = || std::io::Error::new(std::io::ErrorKind::NotFound, "no policy.safetensors");
+        // Its message names its source, which is also its `source()`.
+        let typed = anyhow::Error::new(fluxswarm_gpu::checkpoint::CheckpointError::Read {
+            path: "runs/x".into(),
+            source: io(),
+        });
+        assert_eq!(typed.chain().count(), 2);
+        assert_eq!(
+            error_chain(&typed),
+            "cannot read checkpoint runs/x: no policy.safetensors"
+        );
+        let wrapped = anyhow::Error::new(io()).context("loading the policy");
+        assert_eq!(
+            error_chain(&wrapped),
+            "loading the policy: no policy.safetensors"
+        );
+    }
+}

@@ -18,6 +18,7 @@ mod train_logs;
 
 use clap::{Parser, Subcommand};
 
+pub use common::error_chain;
 pub use signals::Stopped;
 
 #[derive(Debug, Parser)]

@@ -379,7 +379,7 @@ fn run_one(sweep: &Sweep, index: usize) -> anyhow::Result<Option<String>> {
                 return Err(e);
             }
             rec.status = Status::Failed;
-            rec.error = format!("{e:#}");
+            rec.error = super::error_chain(&e);
             Some(format!("{}: {}", run.dir, rec.error))
         }
     };

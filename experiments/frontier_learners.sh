@@ -281,10 +281,11 @@ stage_restore() {
             "$host" "${threads:-0}" "$backend" "$commit" >"$S/$dir/sweep-task.toml"
         n=$((n + 1))
     done < <(awk -F, 'NR > 1 && $3 == "done" { print $4 "|" $(NF-3) "|" $(NF-2) "|" $(NF-1) "|" $NF }' "$R/sweep.csv")
-    for d in "$R"/eval/*/* "$R"/neighbours/*/* "$R"/curve/*/* "$R"/comparators/*; do
-        [ -s "$d/episodes.csv" ] && [ ! -e "$S/${d#"$R"/}" ] || continue
-        mkdir -p "$S/${d#"$R"/}"
-        cp "$d"/* "$S/${d#"$R"/}/"
+    for d in "$R"/eval/*/* "$R"/neighbours/*/* "$R"/comparators/*; do
+        [ -e "$S/${d#"$R"/}" ] || copy_complete "$d" "$S/${d#"$R"/}"
+    done
+    for d in "$R"/curve/*/*; do
+        [ -e "$S/${d#"$R"/}" ] || copy_complete "$d" "$S/${d#"$R"/}" "$KC"
     done
     fluxswarm sweep --status --out "$S"
     say "restore: $n run(s) restored from $R"

@@ -25,7 +25,8 @@ use super::common::ConfigArgs;
 pub struct RolloutArgs {
     #[command(flatten)]
     pub common: ConfigArgs,
-    /// upstream, wall, wall-angle:DEG, zero, random, scripted (privileged: reads the inlet
+    /// upstream, wall, wall-angle:DEG, heading:DEG (one direction for every member, DEG from
+    /// upstream towards the upper wall), zero, random, scripted (privileged: reads the inlet
     /// phase; scripted:CALM_DEG:STORM_DEG:START_S:END_S sets its parameters), or a trained
     /// checkpoint: a `.safetensors` file or a `train` run directory (its newest checkpoint).
     /// A trained policy runs in its saved configuration; `--set` may change inlet.scale,

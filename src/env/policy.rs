@@ -5,6 +5,9 @@
 //!   (y - H/2) / (H/2));
 //! - `wall-angle:DEG`: a = (-cos DEG, +-sin DEG) towards the nearer wall (`upstream` = 0,
 //!   `wall` = 45 up to rounding);
+//! - `heading:DEG`: a = (-cos DEG, sin DEG) for every member wherever it is: a fixed direction
+//!   in the channel's frame, DEG from upstream towards the upper wall (y = H; negative DEG:
+//!   towards y = 0). The one controller here that reads no observation at all;
 //! - `zero`: a = 0; `random`: each component uniform in [-1, 1];
 //! - `scripted` (privileged: it reads the waveform phase, which no learner observes): a
 //!   wall-angle controller whose angle switches with the phase, `storm_deg` inside the window
@@ -84,11 +87,14 @@ pub enum Controller {
     Random,
     /// Full thrust at the given angle (deg) from upstream towards the nearer wall.
     WallAngle(f64),
+    /// Full thrust at the given angle (deg) from upstream towards the upper wall (y = H),
+    /// the same for every member.
+    Heading(f64),
     /// Phase-switched wall-angle controller (reads the inlet phase).
     Scripted(Scripted),
 }
 
-const NAMES: &str = "upstream, wall, wall-angle:DEG, zero, random, scripted or \
+const NAMES: &str = "upstream, wall, wall-angle:DEG, heading:DEG, zero, random, scripted or \
                      scripted:CALM_DEG:STORM_DEG:START_S:END_S";
 
 impl FromStr for Controller {
@@ -100,6 +106,15 @@ impl FromStr for Controller {
                 Ok(d) if d.is_finite() => Ok(Controller::WallAngle(d)),
                 _ => Err(format!(
                     "`{s}`: the angle must be a number of degrees, e.g. wall-angle:30"
+                )),
+            };
+        }
+        if let Some(deg) = s.strip_prefix("heading:") {
+            return match deg.trim().parse::<f64>() {
+                Ok(d) if d.is_finite() => Ok(Controller::Heading(d)),
+                _ => Err(format!(
+                    "`{s}`: the heading must be a number of degrees from upstream towards the \
+                     upper wall, e.g. heading:40 (heading:-40 towards the lower wall)"
                 )),
             };
         }
@@ -133,6 +148,7 @@ impl Controller {
             Controller::Zero => "zero".into(),
             Controller::Random => "random".into(),
             Controller::WallAngle(d) => format!("wall-angle:{d}"),
+            Controller::Heading(d) => format!("heading:{d}"),
             Controller::Scripted(p) => format!(
                 "scripted:{}:{}:{}:{}",
                 p.calm_deg, p.storm_deg, p.storm_start_s, p.storm_end_s
@@ -161,6 +177,10 @@ impl Controller {
             Controller::Zero => [0.0, 0.0],
             Controller::Random => [rng.range(-1.0, 1.0) as f32, rng.range(-1.0, 1.0) as f32],
             Controller::WallAngle(deg) => towards_wall(*deg, obs),
+            Controller::Heading(deg) => {
+                let (s, c) = deg.to_radians().sin_cos();
+                [-c as f32, s as f32]
+            }
             Controller::Scripted(p) => {
                 let deg = if p.in_storm(t_s, period_s) {
                     p.storm_deg
@@ -222,6 +242,26 @@ mod tests {
             Ok(Controller::WallAngle(30.0))
         );
         assert!("wall-angle:x".parse::<Controller>().is_err());
+    }
+
+    #[test]
+    fn heading_is_one_direction_for_every_member() {
+        let a = |deg: f64, o: &[f32]| Controller::Heading(deg).act(o, 0.0, 1.0, &mut Rng::new(1));
+        // 30 degrees towards the upper wall: (-sqrt3/2, 1/2), on either side of the centreline.
+        for o in [&LOW, &HIGH] {
+            let v = a(30.0, o);
+            assert!((v[0] + 0.75f32.sqrt()).abs() < 1e-7 && (v[1] - 0.5).abs() < 1e-7);
+        }
+        // Negative: towards the lower wall, even for a member in the upper half.
+        let v = a(-60.0, &HIGH);
+        assert!((v[0] + 0.5).abs() < 1e-7 && (v[1] + 0.75f32.sqrt()).abs() < 1e-7);
+        assert_eq!(a(0.0, &HIGH), [-1.0, 0.0]);
+        let c: Controller = "heading:-40".parse().unwrap();
+        assert_eq!(c, Controller::Heading(-40.0));
+        assert_eq!(c.name(), "heading:-40");
+        assert!(!c.privileged());
+        let err = "heading:up".parse::<Controller>().unwrap_err();
+        assert!(err.contains("heading:40"), "{err}");
     }
 
     #[test]

@@ -270,12 +270,18 @@ pub fn load(root: &Path) -> Result<Frontier> {
     })
 }
 
-/// The comparator's policy name as the CLI spells it (`wall-angle-40` -> `wall-angle:40`).
+/// The comparator's policy name as the CLI spells it (`wall-angle-40` -> `wall-angle:40`,
+/// `heading--40` -> `heading:-40`).
 pub fn policy_name(dir_name: &str) -> String {
-    match dir_name.strip_prefix("wall-angle-") {
-        Some(deg) => format!("wall-angle:{deg}"),
-        None => dir_name.to_string(),
+    for family in ["wall-angle", "heading"] {
+        if let Some(deg) = dir_name
+            .strip_prefix(family)
+            .and_then(|d| d.strip_prefix('-'))
+        {
+            return format!("{family}:{deg}");
+        }
     }
+    dir_name.to_string()
 }
 
 /// Whether every constant comparator is at or under the bar (None: no constant comparator).
@@ -360,6 +366,9 @@ mod tests {
         cs.push(c("wall", 9));
         assert_eq!(constants_under_bar(&cs), Some(false));
         assert_eq!(policy_name("wall-angle-40"), "wall-angle:40");
+        assert_eq!(policy_name("heading--40"), "heading:-40");
+        assert_eq!(policy_name("heading-40"), "heading:40");
+        assert!(is_constant(&policy_name("heading--40")));
     }
 
     fn episodes(dir: &Path, outcomes: &[(&str, f64)]) {

@@ -385,7 +385,11 @@ pub fn wall_angle_deg(policy: &str) -> Option<f64> {
 
 /// Constant controllers: everything but `scripted` and trained policies.
 pub fn is_constant(policy: &str) -> bool {
-    matches!(policy, "zero" | "random") || wall_angle_deg(policy).is_some()
+    matches!(policy, "zero" | "random")
+        || wall_angle_deg(policy).is_some()
+        || policy
+            .strip_prefix("heading:")
+            .is_some_and(|d| d.parse::<f64>().is_ok())
 }
 
 /// The phase-aware positive control: `scripted` (the tuned parameters) or

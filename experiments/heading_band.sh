@@ -3,7 +3,7 @@
 # one-wall headings on the refined band"). `heading:45` (every member towards the upper wall at
 # 45 degrees from upstream) beat every controller of the protocol in `frontier-fine-085` (35/40
 # at seed 201, against `scripted` 30/40), so the refined grid's frontier, found with the
-# wall-angle family alone, may lie elsewhere for it. Points fixed 2026-12-05 06:40 UTC, before
+# wall-angle family alone, may lie elsewhere for it. Points fixed 2026-12-05 06:21 UTC, before
 # any heading ran off `frontier-fine-085`: flow scales 0.85, 0.875, 0.925 and 1.0 at 850 nN, in
 # that order, on the refined grid (nx 2000, ny 40, 40 substeps), with the refined band's seed (2),
 # episodes (10) and starts (experiments/frontier_refined.sh), so each cell pairs with the band's

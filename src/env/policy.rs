@@ -102,21 +102,17 @@ impl FromStr for Controller {
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         if let Some(deg) = s.strip_prefix("wall-angle:") {
-            return match deg.trim().parse::<f64>() {
-                Ok(d) if d.is_finite() => Ok(Controller::WallAngle(d)),
-                _ => Err(format!(
-                    "`{s}`: the angle must be a number of degrees, e.g. wall-angle:30"
-                )),
-            };
+            return parse_deg(deg).map(Controller::WallAngle).ok_or_else(|| {
+                format!("`{s}`: the angle must be a number of degrees, e.g. wall-angle:30")
+            });
         }
         if let Some(deg) = s.strip_prefix("heading:") {
-            return match deg.trim().parse::<f64>() {
-                Ok(d) if d.is_finite() => Ok(Controller::Heading(d)),
-                _ => Err(format!(
+            return parse_deg(deg).map(Controller::Heading).ok_or_else(|| {
+                format!(
                     "`{s}`: the heading must be a number of degrees from upstream towards the \
                      upper wall, e.g. heading:40 (heading:-40 towards the lower wall)"
-                )),
-            };
+                )
+            });
         }
         if let Some(spec) = s.strip_prefix("scripted:") {
             return Scripted::parse(spec).map(Controller::Scripted);
@@ -130,6 +126,11 @@ impl FromStr for Controller {
             other => Err(format!("unknown policy `{other}`: use {NAMES}")),
         }
     }
+}
+
+/// A finite number of degrees (`wall-angle:DEG`, `heading:DEG`), or None.
+fn parse_deg(deg: &str) -> Option<f64> {
+    deg.trim().parse::<f64>().ok().filter(|d| d.is_finite())
 }
 
 /// Thrust at `deg` degrees from upstream (-x) towards the nearer wall.
@@ -262,6 +263,27 @@ mod tests {
         assert!(!c.privileged());
         let err = "heading:up".parse::<Controller>().unwrap_err();
         assert!(err.contains("heading:40"), "{err}");
+    }
+
+    #[test]
+    fn angles_must_be_finite_numbers_of_degrees() {
+        assert_eq!(
+            " 12.5 ".parse::<Controller>().ok(),
+            None,
+            "a bare number is no controller"
+        );
+        assert_eq!(
+            "heading: 12.5".parse::<Controller>(),
+            Ok(Controller::Heading(12.5))
+        );
+        for bad in ["inf", "-inf", "NaN", ""] {
+            let err = format!("wall-angle:{bad}")
+                .parse::<Controller>()
+                .unwrap_err();
+            assert!(err.contains("wall-angle:30"), "{err}");
+            let err = format!("heading:{bad}").parse::<Controller>().unwrap_err();
+            assert!(err.contains("heading:40"), "{err}");
+        }
     }
 
     #[test]

@@ -9,6 +9,8 @@
 # constant thrust on the same episodes; TUNE_CONSTANTS (default none) adds such candidates
 # for the angles it lists. TUNE_SET adds rollout flags to every candidate (e.g.
 # the refined grid: TUNE_SET="--set domain.nx=2000 --set domain.ny=40 --set time.substeps=40").
+# TUNE_FAMILY (default scripted) picks the controller: `scripted` (angles towards each member's
+# nearer wall) or `scripted-heading` (one heading for every member, towards the upper wall).
 # Usage: bash experiments/tune_scripted.sh [OUT]   (default runs/experiments/tune_scripted)
 # Prints one line per candidate: successes, mean steps, mean final x_COM.
 source "$(dirname "$0")/common.sh"
@@ -24,6 +26,7 @@ read -r -a starts <<<"${TUNE_STARTS:-0.9 0.95 0.0}"
 read -r -a ends <<<"${TUNE_ENDS:-0.15 0.2 0.3}"
 read -r -a constants <<<"${TUNE_CONSTANTS:-}"
 read -r -a extra <<<"${TUNE_SET:-}"
+FAMILY=${TUNE_FAMILY:-scripted}
 mkdir -p "$out"
 
 score() { # DIR -> "successes mean_steps mean_final_x"
@@ -31,11 +34,11 @@ score() { # DIR -> "successes mean_steps mean_final_x"
         END { printf "%d %.1f %.2f\n", s, t / n, x / n }' "$1/episodes.csv"
 }
 run() { # CALM STORM START END
-    local p="$1,$2,$3,$4" dir="$out/scripted_$1_$2_$3_$4"
-    episodes_once "$dir" "$K" --policy "scripted:$p" --envs 4 --seed "$SEED" \
+    local p="$1,$2,$3,$4" dir="$out/${FAMILY}_$1_$2_$3_$4"
+    episodes_once "$dir" "$K" --policy "$FAMILY:$p" --envs 4 --seed "$SEED" \
         "${SCENARIO_SET[@]}" --set "inlet.scale=$SCALE" --set "swarm.max_thrust_n=$THRUST" \
         "${extra[@]}"
-    echo "scripted:$p $(score "$dir")" | tee -a "$out/scores.txt"
+    echo "$FAMILY:$p $(score "$dir")" | tee -a "$out/scores.txt"
 }
 : >"$out/scores.txt"
 for angle in "${constants[@]}"; do

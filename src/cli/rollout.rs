@@ -27,7 +27,8 @@ pub struct RolloutArgs {
     pub common: ConfigArgs,
     /// upstream, wall, wall-angle:DEG, heading:DEG (one direction for every member, DEG from
     /// upstream towards the upper wall), zero, random, scripted (privileged: reads the inlet
-    /// phase; scripted:CALM_DEG:STORM_DEG:START_S:END_S sets its parameters), or a trained
+    /// phase; scripted:CALM_DEG:STORM_DEG:START_S:END_S sets its parameters;
+    /// scripted-heading:CALM_DEG:STORM_DEG:START_S:END_S switches between two headings), or a trained
     /// checkpoint: a `.safetensors` file or a `train` run directory (its newest checkpoint).
     /// A trained policy runs in its saved configuration; `--set` may change inlet.scale,
     /// swarm.max_thrust_n, domain.nx, domain.ny, time.substeps and swarm.drag around it (a

@@ -13,7 +13,9 @@
 //!   wall-angle controller whose angle switches with the phase, `storm_deg` inside the window
 //!   [storm_start_s, storm_end_s) of the period (systole and the time around it) and `calm_deg`
 //!   outside it. `scripted` uses [`Scripted::TUNED`]; `scripted:CALM:STORM:START:END` names the
-//!   four parameters (commas work too, but colons keep the name one CSV field).
+//!   four parameters (commas work too, but colons keep the name one CSV field);
+//! - `scripted-heading:CALM:STORM:START:END` (privileged): the same switch between two
+//!   `heading:DEG` directions, one for every member (the one-wall family of `heading`).
 
 use std::str::FromStr;
 
@@ -51,19 +53,38 @@ impl Scripted {
         since < width
     }
 
-    fn parse(spec: &str) -> Result<Self, String> {
+    /// The angle (deg) at waveform time `t_s`: `storm_deg` in the window, `calm_deg` outside.
+    pub fn angle(&self, t_s: f64, period_s: f64) -> f64 {
+        if self.in_storm(t_s, period_s) {
+            self.storm_deg
+        } else {
+            self.calm_deg
+        }
+    }
+
+    /// The four parameters as a name takes them, `CALM:STORM:START:END`.
+    fn spec(&self) -> String {
+        format!(
+            "{}:{}:{}:{}",
+            self.calm_deg, self.storm_deg, self.storm_start_s, self.storm_end_s
+        )
+    }
+
+    /// Parses `CALM:STORM:START:END` given after `family:` (`scripted` or `scripted-heading`),
+    /// whose name the errors quote.
+    fn parse(family: &str, spec: &str) -> Result<Self, String> {
         let values: Vec<f64> = spec
             .split([',', ':'])
             .map(|v| v.trim().parse::<f64>())
             .collect::<Result<_, _>>()
-            .map_err(|_| format!("`scripted:{spec}`: the four parameters must be numbers"))?;
+            .map_err(|_| format!("`{family}:{spec}`: the four parameters must be numbers"))?;
         let [calm_deg, storm_deg, storm_start_s, storm_end_s] = values[..] else {
             return Err(format!(
-                "`scripted:{spec}`: give four numbers, scripted:CALM_DEG:STORM_DEG:START_S:END_S"
+                "`{family}:{spec}`: give four numbers, {family}:CALM_DEG:STORM_DEG:START_S:END_S"
             ));
         };
         if !values.iter().all(|v| v.is_finite()) {
-            return Err(format!("`scripted:{spec}`: the parameters must be finite"));
+            return Err(format!("`{family}:{spec}`: the parameters must be finite"));
         }
         Ok(Self {
             calm_deg,
@@ -92,10 +113,14 @@ pub enum Controller {
     Heading(f64),
     /// Phase-switched wall-angle controller (reads the inlet phase).
     Scripted(Scripted),
+    /// Phase-switched heading controller (reads the inlet phase): the angles of [`Scripted`]
+    /// are headings, from upstream towards the upper wall for every member.
+    ScriptedHeading(Scripted),
 }
 
-const NAMES: &str = "upstream, wall, wall-angle:DEG, heading:DEG, zero, random, scripted or \
-                     scripted:CALM_DEG:STORM_DEG:START_S:END_S";
+const NAMES: &str = "upstream, wall, wall-angle:DEG, heading:DEG, zero, random, scripted, \
+                     scripted:CALM_DEG:STORM_DEG:START_S:END_S or \
+                     scripted-heading:CALM_DEG:STORM_DEG:START_S:END_S";
 
 impl FromStr for Controller {
     type Err = String;
@@ -115,7 +140,10 @@ impl FromStr for Controller {
             });
         }
         if let Some(spec) = s.strip_prefix("scripted:") {
-            return Scripted::parse(spec).map(Controller::Scripted);
+            return Scripted::parse("scripted", spec).map(Controller::Scripted);
+        }
+        if let Some(spec) = s.strip_prefix("scripted-heading:") {
+            return Scripted::parse("scripted-heading", spec).map(Controller::ScriptedHeading);
         }
         match s {
             "upstream" => Ok(Controller::Upstream),
@@ -131,6 +159,13 @@ impl FromStr for Controller {
 /// A finite number of degrees (`wall-angle:DEG`, `heading:DEG`), or None.
 fn parse_deg(deg: &str) -> Option<f64> {
     deg.trim().parse::<f64>().ok().filter(|d| d.is_finite())
+}
+
+/// Thrust at `deg` degrees from upstream (-x) towards the upper wall (y = H), wherever the
+/// member is.
+fn heading(deg: f64) -> [f32; 2] {
+    let (s, c) = deg.to_radians().sin_cos();
+    [-c as f32, s as f32]
 }
 
 /// Thrust at `deg` degrees from upstream (-x) towards the nearer wall.
@@ -150,16 +185,17 @@ impl Controller {
             Controller::Random => "random".into(),
             Controller::WallAngle(d) => format!("wall-angle:{d}"),
             Controller::Heading(d) => format!("heading:{d}"),
-            Controller::Scripted(p) => format!(
-                "scripted:{}:{}:{}:{}",
-                p.calm_deg, p.storm_deg, p.storm_start_s, p.storm_end_s
-            ),
+            Controller::Scripted(p) => format!("scripted:{}", p.spec()),
+            Controller::ScriptedHeading(p) => format!("scripted-heading:{}", p.spec()),
         }
     }
 
     /// Whether the controller reads the inlet phase (information no learner observes).
     pub fn privileged(&self) -> bool {
-        matches!(self, Controller::Scripted(_))
+        matches!(
+            self,
+            Controller::Scripted(_) | Controller::ScriptedHeading(_)
+        )
     }
 
     /// Raw action of one agent from its observation and its environment's waveform time
@@ -178,18 +214,9 @@ impl Controller {
             Controller::Zero => [0.0, 0.0],
             Controller::Random => [rng.range(-1.0, 1.0) as f32, rng.range(-1.0, 1.0) as f32],
             Controller::WallAngle(deg) => towards_wall(*deg, obs),
-            Controller::Heading(deg) => {
-                let (s, c) = deg.to_radians().sin_cos();
-                [-c as f32, s as f32]
-            }
-            Controller::Scripted(p) => {
-                let deg = if p.in_storm(t_s, period_s) {
-                    p.storm_deg
-                } else {
-                    p.calm_deg
-                };
-                towards_wall(deg, obs)
-            }
+            Controller::Heading(deg) => heading(*deg),
+            Controller::Scripted(p) => towards_wall(p.angle(t_s, period_s), obs),
+            Controller::ScriptedHeading(p) => heading(p.angle(t_s, period_s)),
         }
     }
 
@@ -326,6 +353,35 @@ mod tests {
             Ok(Controller::Scripted(Scripted::TUNED))
         );
         assert!("scripted:1,2,3".parse::<Controller>().is_err());
+    }
+
+    #[test]
+    fn scripted_heading_switches_one_direction_for_every_member() {
+        let c: Controller = "scripted-heading:45:-30:0.9:0.2".parse().unwrap();
+        let p = Scripted {
+            calm_deg: 45.0,
+            storm_deg: -30.0,
+            storm_start_s: 0.9,
+            storm_end_s: 0.2,
+        };
+        assert_eq!(c, Controller::ScriptedHeading(p));
+        assert_eq!(c.name(), "scripted-heading:45:-30:0.9:0.2");
+        assert!(c.privileged());
+        let s = std::f32::consts::FRAC_1_SQRT_2;
+        for o in [&LOW, &HIGH] {
+            // Calm (t = 0.5): 45 degrees towards the upper wall, on either side of the centreline.
+            let a = c.act(o, 0.5, 1.0, &mut Rng::new(1));
+            assert!((a[0] + s).abs() < 1e-7 && (a[1] - s).abs() < 1e-7, "{a:?}");
+            // Storm (t = 1.1, wrapped): 30 degrees towards the lower wall, (-sqrt3/2, -1/2).
+            let a = c.act(o, 1.1, 1.0, &mut Rng::new(1));
+            assert!(
+                (a[0] + 0.75f32.sqrt()).abs() < 1e-7 && (a[1] + 0.5).abs() < 1e-7,
+                "{a:?}"
+            );
+        }
+        let err = "scripted-heading:1:2".parse::<Controller>().unwrap_err();
+        assert!(err.contains("`scripted-heading:1:2`"), "{err}");
+        assert!(err.contains("scripted-heading:CALM_DEG"), "{err}");
     }
 
     #[test]

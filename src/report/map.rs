@@ -392,10 +392,13 @@ pub fn is_constant(policy: &str) -> bool {
             .is_some_and(|d| d.parse::<f64>().is_ok())
 }
 
-/// The phase-aware positive control: `scripted` (the tuned parameters) or
-/// `scripted:CALM:STORM:START:END` (parameters tuned for another grid, e.g. the refined one).
+/// The phase-aware positive control: `scripted` (the tuned parameters),
+/// `scripted:CALM:STORM:START:END` (parameters tuned for another grid, e.g. the refined one) or
+/// its one-wall form `scripted-heading:CALM:STORM:START:END`.
 pub fn is_scripted(policy: &str) -> bool {
-    policy == "scripted" || policy.starts_with("scripted:")
+    policy == "scripted"
+        || policy.starts_with("scripted:")
+        || policy.starts_with("scripted-heading:")
 }
 
 #[cfg(test)]
@@ -453,6 +456,10 @@ mod tests {
         assert_eq!(wall_angle_deg("wall-angle:70"), Some(70.0));
         assert!(is_constant("zero") && !is_constant("scripted"));
         assert!(is_scripted("scripted") && is_scripted("scripted:30:60:0.9:0.15"));
+        assert!(
+            is_scripted("scripted-heading:45:60:0.9:0.15")
+                && !is_constant("scripted-heading:45:60:0.9:0.15")
+        );
         assert!(
             !is_scripted("wall") && !is_scripted("scriptedx") && !is_constant("scripted:1:2:3:4")
         );

@@ -103,7 +103,11 @@ impl Policy {
     pub fn privileged_note(&self) -> String {
         match self {
             Policy::Controller(Controller::Scripted(p), _) => format!(
-                " (privileged, reads the inlet phase: {} deg outside and {} deg inside [{} s, {} s) of the period)",
+                " (privileged, reads the inlet phase: {} deg outside and {} deg inside [{} s, {} s) of the period, towards the nearer wall)",
+                p.calm_deg, p.storm_deg, p.storm_start_s, p.storm_end_s
+            ),
+            Policy::Controller(Controller::ScriptedHeading(p), _) => format!(
+                " (privileged, reads the inlet phase: {} deg outside and {} deg inside [{} s, {} s) of the period, towards the upper wall for every member)",
                 p.calm_deg, p.storm_deg, p.storm_start_s, p.storm_end_s
             ),
             _ => String::new(),

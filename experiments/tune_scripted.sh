@@ -38,7 +38,9 @@ run() { # CALM STORM START END
     episodes_once "$dir" "$K" --policy "$FAMILY:$p" --envs 4 --seed "$SEED" \
         "${SCENARIO_SET[@]}" --set "inlet.scale=$SCALE" --set "swarm.max_thrust_n=$THRUST" \
         "${extra[@]}"
-    echo "$FAMILY:$p $(score "$dir")" | tee -a "$out/scores.txt"
+    # The window stage runs the best pair's window again when it is the stage-1 window: score
+    # each candidate once.
+    grep -q "^$FAMILY:$p " "$out/scores.txt" || echo "$FAMILY:$p $(score "$dir")" | tee -a "$out/scores.txt"
 }
 : >"$out/scores.txt"
 for angle in "${constants[@]}"; do

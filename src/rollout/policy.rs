@@ -8,7 +8,7 @@ use std::path::Path;
 use super::RolloutError;
 use crate::checkpoint::{self, Archive};
 use crate::config::{Config, Resolved};
-use crate::env::policy::Controller;
+use crate::env::policy::{Controller, Scripted};
 use crate::env::{GLOBAL_DIM, OBS_DIM, SwarmEnv};
 use crate::learn::env::MultiAgentEnv;
 use crate::learn::mappo::Learner;
@@ -102,15 +102,20 @@ impl Policy {
     /// What a run's header says of a privileged controller (empty for the others).
     pub fn privileged_note(&self) -> String {
         match self {
-            Policy::Controller(Controller::Scripted(p), _) => format!(
-                " (privileged, reads the inlet phase: {} deg outside and {} deg inside [{} s, {} s) of the period, towards the nearer wall)",
-                p.calm_deg, p.storm_deg, p.storm_start_s, p.storm_end_s
-            ),
-            Policy::Controller(Controller::ScriptedHeading(p), _) => format!(
-                " (privileged, reads the inlet phase: {} deg outside and {} deg inside [{} s, {} s) of the period, towards the upper wall for every member)",
-                p.calm_deg, p.storm_deg, p.storm_start_s, p.storm_end_s
-            ),
+            Policy::Controller(Controller::Scripted(p), _) => scripted_note(p, "the nearer wall"),
+            Policy::Controller(Controller::ScriptedHeading(p), _) => {
+                scripted_note(p, "the upper wall for every member")
+            }
             _ => String::new(),
         }
     }
+}
+
+/// The header note of a phase-switched controller: its two angles, its window and where the
+/// angles point.
+fn scripted_note(p: &Scripted, towards: &str) -> String {
+    format!(
+        " (privileged, reads the inlet phase: {} deg outside and {} deg inside [{} s, {} s) of the period, towards {towards})",
+        p.calm_deg, p.storm_deg, p.storm_start_s, p.storm_end_s
+    )
 }

@@ -20,3 +20,6 @@ cell 637.5e-9 637.5 "heading:45 scripted"
 cell 1062.5e-9 1062.5 "heading:45 scripted"
 cell 637.5e-9 637.5 "scripted-heading:45:75:0.9:0.15"
 cell 1062.5e-9 1062.5 "scripted-heading:45:75:0.9:0.15"
+# Follow-up, fixed 2026-12-05 10:20 UTC after the cells above and before any of these ran: the
+# other constants at 637.5 nN, where `scripted-heading` got 3 of 10 and `heading:45` none.
+cell 637.5e-9 637.5 "heading:40 heading:50 heading:60 heading:75 wall-angle:40 wall"

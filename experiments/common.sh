@@ -27,6 +27,10 @@ fi
 
 say() { echo "== $(date -u +%H:%M:%S) $*" >&2; }
 
+# tune_best SCORES: the best line of a tune_scripted.sh scores.txt ("CANDIDATE SUCCESSES
+# MEAN_STEPS MEAN_X"): the most successes, then the longer mean episode.
+tune_best() { sort -k2,2nr -k3,3nr "$1" | head -1; }
+
 # train_run DIR SEED STEPS ENVS [train flags...]: trains into DIR, or continues DIR up to STEPS.
 train_run() {
     local dir=$1 seed=$2 steps=$3 envs=$4

@@ -8,7 +8,7 @@
 # the refined band's starts at that point (seed 2, 10 episodes), beside the cell's others.
 # Usage: bash experiments/heading_timing_thrust.sh [TUNE_OUT] [THRUST_OUT]
 #   (defaults runs/experiments/tune_scripted_heading_637 and runs/experiments/heading_thrust)
-set -euo pipefail
+source "$(dirname "$0")/common.sh"
 here="$(dirname "$0")"
 tune=${1:-runs/experiments/tune_scripted_heading_637}
 cells=${2:-runs/experiments/heading_thrust}
@@ -16,7 +16,7 @@ FINE=(--set domain.nx=2000 --set domain.ny=40 --set time.substeps=40)
 TUNE_FAMILY=scripted-heading TUNE_SCALE=0.85 TUNE_THRUST=6.375e-7 TUNE_CONSTANTS="45" \
     TUNE_CALMS="30 45" TUNE_STORMS="60 75 90" TUNE_WINDOW="0.9 0.15" TUNE_STARTS=0.9 \
     TUNE_ENDS=0.15 TUNE_SET="${FINE[*]}" bash "$here/tune_scripted.sh" "$tune"
-best=$(sort -k2,2nr -k3,3nr "$tune/scores.txt" | head -1 | cut -d' ' -f1)
+best=$(tune_best "$tune/scores.txt" | cut -d' ' -f1)
 IFS=, read -r calm storm start end <<<"${best#scripted-heading:}"
 if [ "$calm" = "$storm" ]; then
     echo "the search picked the constant heading $calm: no check"

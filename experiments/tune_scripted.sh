@@ -51,7 +51,7 @@ for calm in "${calms[@]}"; do
         run "$calm" "$storm" "${window[0]}" "${window[1]}"
     done
 done
-best=$(sort -k2,2nr -k3,3nr "$out/scores.txt" | head -1 | cut -d' ' -f1 | cut -d: -f2)
+best=$(tune_best "$out/scores.txt" | cut -d' ' -f1 | cut -d: -f2)
 IFS=, read -r calm storm _ _ <<<"$best"
 if [ "$calm" = "$storm" ]; then # a constant angle: the window changes nothing
     starts=()
@@ -61,4 +61,4 @@ for start in "${starts[@]}"; do
         run "$calm" "$storm" "$start" "$end"
     done
 done
-say "best: $(sort -k2,2nr -k3,3nr "$out/scores.txt" | head -1)"
+say "best: $(tune_best "$out/scores.txt")"

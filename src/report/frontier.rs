@@ -8,8 +8,9 @@
 //! For each variant and evaluation (sampled, deterministic, each neighbour), over the S seeds
 //! evaluated:
 //! - the pooled success rate, sum k / sum n;
-//! - progress, energy, smoothness and the episode length (control steps), the mean over seeds
-//!   of each run's episode mean;
+//! - progress, energy, smoothness, the episode length in control steps and in simulated seconds
+//!   (steps x `time.control_dt_s` of the evaluation's `config.toml`, so that runs with another
+//!   control interval compare), the mean over seeds of each run's episode mean;
 //! - for each, a 95 % percentile bootstrap over seeds: B resamples of the S seeds with
 //!   replacement (SplitMix64, seed 0), with the 2.5th and 97.5th percentiles of the statistic.
 //!
@@ -20,7 +21,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::data::read_episodes;
+use super::data::{RunInfo, read_episodes};
 use super::error::Result;
 use super::map::is_constant;
 use super::sweep_table::{self, SweepRow};
@@ -42,7 +43,8 @@ pub struct RunEval {
     pub successes: usize,
     /// Episodes evaluated.
     pub episodes: usize,
-    /// Mean progress, energy, smoothness and episode length (steps) over the episodes.
+    /// Mean progress, energy, smoothness, episode length (steps) and episode length (seconds,
+    /// NaN when the evaluation has no `config.toml`) over the episodes.
     pub means: [f64; METRICS],
 }
 
@@ -57,15 +59,16 @@ pub struct Estimate {
     pub hi: f64,
 }
 
-/// The metrics averaged over seeds: progress, energy, smoothness, episode length (steps).
-pub const METRICS: usize = 4;
+/// The metrics averaged over seeds: progress, energy, smoothness, episode length (steps and
+/// seconds).
+pub const METRICS: usize = 5;
 
 /// The pooled success rate and the metrics over seeds, each with its bootstrap interval.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pooled {
     /// sum k / sum n.
     pub success: Estimate,
-    /// Mean over seeds of progress, energy, smoothness and episode length (steps).
+    /// Mean over seeds of progress, energy, smoothness and episode length (steps, seconds).
     pub metrics: [Estimate; METRICS],
 }
 
@@ -121,11 +124,12 @@ pub fn bootstrap(runs: &[RunEval], draws: usize, seed: u64) -> Option<Pooled> {
         .collect();
     Some(Pooled {
         success: est[0],
-        metrics: [est[1], est[2], est[3], est[4]],
+        metrics: [est[1], est[2], est[3], est[4], est[5]],
     })
 }
 
-/// One evaluation of one run, read from its `episodes.csv`; None when the file is absent.
+/// One evaluation of one run, read from its `episodes.csv` (and `config.toml`, for the
+/// control interval); None when `episodes.csv` is absent.
 pub fn read_eval(dir: &Path) -> Result<Option<RunEval>> {
     let path = dir.join("episodes.csv");
     if !path.exists() {
@@ -136,9 +140,16 @@ pub fn read_eval(dir: &Path) -> Result<Option<RunEval>> {
         return Ok(None);
     }
     let n = episodes.len() as f64;
+    // The control interval, from the config.toml rollout writes beside episodes.csv.
+    let dt = if dir.join("config.toml").exists() {
+        RunInfo::read(dir)?.control_dt_s
+    } else {
+        f64::NAN
+    };
     let mut means = [0.0; METRICS];
     for e in &episodes {
-        let values = [e.metrics[0], e.metrics[1], e.metrics[2], e.steps as f64];
+        let steps = e.steps as f64;
+        let values = [e.metrics[0], e.metrics[1], e.metrics[2], steps, steps * dt];
         for (m, v) in means.iter_mut().zip(values) {
             *m += v / n;
         }
@@ -178,6 +189,8 @@ pub struct Comparator {
     pub episodes: usize,
     /// Mean episode length (control steps).
     pub mean_steps: f64,
+    /// Mean episode length (simulated seconds; NaN without the evaluation's `config.toml`).
+    pub mean_seconds: f64,
 }
 
 fn subdirs(dir: &Path) -> Vec<PathBuf> {
@@ -259,6 +272,7 @@ pub fn load(root: &Path) -> Result<Frontier> {
                 successes: e.successes,
                 episodes: e.episodes,
                 mean_steps: e.means[3],
+                mean_seconds: e.means[4],
             });
         }
     }
@@ -305,8 +319,9 @@ mod tests {
         RunEval {
             successes: k,
             episodes: n,
-            // Every episode of the directories `episodes` writes lasts 10 steps.
-            means: [progress, 0.5, 0.25, 10.0],
+            // Every episode of the directories `episodes` writes lasts 10 steps; with no
+            // config.toml its length in seconds is unknown.
+            means: [progress, 0.5, 0.25, 10.0, f64::NAN],
         }
     }
 
@@ -359,6 +374,7 @@ mod tests {
             successes: k,
             episodes: 40,
             mean_steps: 100.0,
+            mean_seconds: 0.5,
         };
         assert_eq!(constants_under_bar(&[]), None);
         let mut cs = vec![c("zero", 0), c("wall-angle-40", 8), c("scripted", 30)];
@@ -380,6 +396,18 @@ mod tests {
             text += &format!("0,{i},10,{outcome},{progress},0.5,0.25,0,0,0,0,50\n");
         }
         std::fs::write(dir.join("episodes.csv"), text).unwrap();
+    }
+
+    /// The `config.toml` rollout writes beside `episodes.csv`, cut to the control interval.
+    fn control_dt(dir: &Path, seconds: f64) {
+        std::fs::write(
+            dir.join("config.toml"),
+            format!(
+                "# fluxswarm-gpu rollout\n[time]\ncontrol_dt_s = {seconds}\n\
+                 [domain]\nsuccess_x_m = 0.02\nfailure_x_m = 0.07\n"
+            ),
+        )
+        .unwrap();
     }
 
     #[test]
@@ -418,6 +446,10 @@ mod tests {
             &[("success", 0.0), ("failure", 0.0)],
         );
         episodes(&root.join("comparators/scripted"), &[("success", 0.0)]);
+        // Seconds = steps x the evaluation's control interval: 10 x 0.005 and 10 x 0.02.
+        control_dt(&eval.join("p000_a_seed1/sampled"), 0.005);
+        control_dt(&eval.join("p000_a_seed2/sampled"), 0.02);
+        control_dt(&root.join("comparators/scripted"), 0.005);
         let Frontier {
             rows, comparators, ..
         } = load(root).unwrap();
@@ -433,31 +465,30 @@ mod tests {
         // Seed means 1.0 and 5.0.
         assert_eq!(p.metrics[0].value, 3.0);
         assert_eq!(p.metrics[3].value, 10.0);
+        // Seed means 0.05 s and 0.2 s.
+        assert!((p.metrics[4].value - 0.125).abs() < 1e-12);
+        assert!((p.metrics[4].lo - 0.05).abs() < 1e-12 && (p.metrics[4].hi - 0.2).abs() < 1e-12);
         let b = row(1, "sampled");
         assert_eq!((b.runs.len(), b.seeds), (1, 2));
         assert_eq!(b.overrides, "--steps=8 --no-pcgrad=true");
         assert_eq!(b.pooled.unwrap().success.value, 0.0);
         assert_eq!(row(0, "deterministic").runs.len(), 1);
         assert!(row(1, "deterministic").pooled.is_none());
-        assert_eq!(row(0, "neighbours/scale-x0.9").runs, [run(1, 1, 3.0)]);
+        let neighbour = &row(0, "neighbours/scale-x0.9").runs;
+        assert_eq!(neighbour.len(), 1);
+        assert_eq!(neighbour[0].means[..4], run(1, 1, 3.0).means[..4]);
+        assert!(neighbour[0].means[4].is_nan());
         assert_eq!(rows.len(), 2 * 3);
+        let summary: Vec<(&str, usize, usize, f64)> = comparators
+            .iter()
+            .map(|c| (c.policy.as_str(), c.successes, c.episodes, c.mean_steps))
+            .collect();
         assert_eq!(
-            comparators,
-            [
-                Comparator {
-                    policy: "scripted".into(),
-                    successes: 1,
-                    episodes: 1,
-                    mean_steps: 10.0,
-                },
-                Comparator {
-                    policy: "wall-angle-40".into(),
-                    successes: 1,
-                    episodes: 2,
-                    mean_steps: 10.0,
-                },
-            ]
+            summary,
+            [("scripted", 1, 1, 10.0), ("wall-angle-40", 1, 2, 10.0)]
         );
+        assert!((comparators[0].mean_seconds - 0.05).abs() < 1e-12);
+        assert!(comparators[1].mean_seconds.is_nan());
         assert_eq!(constants_under_bar(&comparators), Some(false));
         let md = super::super::frontier_output::markdown(root, &rows, &comparators, &[]);
         assert!(
@@ -465,5 +496,33 @@ mod tests {
             "{md}"
         );
         assert!(md.contains("| wall-angle:40 | yes | 1/2 = 50 %"), "{md}");
+        assert!(
+            md.contains("| scripted | no | 1/1 = 100 % [21, 100] | 10 | 0.050 |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| 10 [10, 10] | 0.125 [0.050, 0.200] |"),
+            "{md}"
+        );
+        // Variant 1's one run has no config.toml: its seconds are unknown, not zero.
+        let v1 = md
+            .lines()
+            .find(|l| l.starts_with("| 1 | --steps=8 --no-pcgrad=true | sampled |"))
+            .unwrap();
+        assert!(v1.ends_with("| 10 [10, 10] | - |"), "{v1}");
+        let csv = String::from_utf8(super::super::frontier_output::csv(&rows).unwrap()).unwrap();
+        assert!(
+            csv.lines()
+                .next()
+                .unwrap()
+                .ends_with("steps,steps_lo,steps_hi,seconds,seconds_lo,seconds_hi")
+        );
+        assert!(
+            csv.lines()
+                .nth(1)
+                .unwrap()
+                .ends_with(",0.125000,0.050000,0.200000"),
+            "{csv}"
+        );
     }
 }

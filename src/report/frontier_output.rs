@@ -1,6 +1,6 @@
 //! `frontier.md` and `frontier.csv` of `report --frontier` ([`super::frontier`]): one row per
 //! variant and evaluation (the pooled success rate, progress, energy, smoothness and episode
-//! length, each with its 95 % bootstrap interval over seeds, and each seed's successes), the
+//! length in control steps and in seconds, each with its 95 % bootstrap interval over seeds, and each seed's successes), the
 //! comparators with their Wilson intervals and episode length, and the protocol's goal.
 
 use std::path::Path;
@@ -13,6 +13,15 @@ use super::frontier::{
 use super::map::is_constant;
 use super::stats::wilson95;
 use super::training_curve::{self, Curve};
+
+/// `value [lo, hi]` with `decimals`, or `-` for a metric that could not be computed (NaN: an
+/// episode length in seconds of an evaluation without its `config.toml`).
+fn interval(e: &Estimate, decimals: usize) -> String {
+    if e.value.is_nan() {
+        return "-".into();
+    }
+    format!("{:.d$} [{:.d$}, {:.d$}]", e.value, e.lo, e.hi, d = decimals)
+}
 
 fn pct(e: &Estimate) -> String {
     format!(
@@ -29,15 +38,16 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator], curves: &
     md += &format!(
         "Per variant and evaluation: the runs evaluated of the variant's seeds; the pooled \
          success rate (sum of successes over sum of episodes); progress, energy, smoothness \
-         and the episode length (control steps) as the mean over seeds of each run's mean. Each comes with its 95 % percentile \
-         bootstrap interval over seeds ({DRAWS} resamples). A variant meets the goal when its \
+         and the episode length (in control steps, and in simulated seconds: steps times the \
+         run's control interval, so that variants with another interval compare) as the mean \
+         over seeds of each run's mean. Each comes with its 95 % percentile bootstrap interval over seeds ({DRAWS} resamples). A variant meets the goal when its \
          pooled sampled rate is at least {:.0} % and every constant comparator's is at most \
          {:.0} %.\n\n",
         100.0 * GOAL,
         100.0 * CONSTANT_BAR
     );
-    md += "| variant | overrides | evaluation | runs | success | per seed | progress | energy | smoothness | steps |\n";
-    md += "|---|---|---|---|---|---|---|---|---|---|\n";
+    md += "| variant | overrides | evaluation | runs | success | per seed | progress | energy | smoothness | steps | seconds |\n";
+    md += "|---|---|---|---|---|---|---|---|---|---|---|\n";
     for r in rows {
         let per_seed: Vec<String> = r
             .runs
@@ -48,24 +58,13 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator], curves: &
             Some(p) => [
                 pct(&p.success),
                 per_seed.join(" "),
-                format!(
-                    "{:.2} [{:.2}, {:.2}]",
-                    p.metrics[0].value, p.metrics[0].lo, p.metrics[0].hi
-                ),
-                format!(
-                    "{:.3} [{:.3}, {:.3}]",
-                    p.metrics[1].value, p.metrics[1].lo, p.metrics[1].hi
-                ),
-                format!(
-                    "{:.3} [{:.3}, {:.3}]",
-                    p.metrics[2].value, p.metrics[2].lo, p.metrics[2].hi
-                ),
-                format!(
-                    "{:.0} [{:.0}, {:.0}]",
-                    p.metrics[3].value, p.metrics[3].lo, p.metrics[3].hi
-                ),
+                interval(&p.metrics[0], 2),
+                interval(&p.metrics[1], 3),
+                interval(&p.metrics[2], 3),
+                interval(&p.metrics[3], 0),
+                interval(&p.metrics[4], 3),
             ],
-            None => ["-", "-", "-", "-", "-", "-"].map(String::from),
+            None => ["-", "-", "-", "-", "-", "-", "-"].map(String::from),
         };
         md += &format!(
             "| {} | {} | {} | {}/{} | {} |\n",
@@ -77,11 +76,11 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator], curves: &
             cells.join(" | ")
         );
     }
-    md += "\n## Comparators\n\n| policy | constant | success | steps |\n|---|---|---|---|\n";
+    md += "\n## Comparators\n\n| policy | constant | success | steps | seconds |\n|---|---|---|---|---|\n";
     for c in comparators {
         let (lo, hi) = wilson95(c.successes, c.episodes);
         md += &format!(
-            "| {} | {} | {}/{} = {:.0} % [{:.0}, {:.0}] | {:.0} |\n",
+            "| {} | {} | {}/{} = {:.0} % [{:.0}, {:.0}] | {:.0} | {} |\n",
             policy_name(&c.policy),
             if is_constant(&policy_name(&c.policy)) {
                 "yes"
@@ -93,7 +92,12 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator], curves: &
             100.0 * c.successes as f64 / c.episodes.max(1) as f64,
             100.0 * lo,
             100.0 * hi,
-            c.mean_steps
+            c.mean_steps,
+            if c.mean_seconds.is_nan() {
+                "-".to_string()
+            } else {
+                format!("{:.3}", c.mean_seconds)
+            }
         );
     }
     md += "\n## The goal\n\n";
@@ -143,7 +147,14 @@ pub fn csv(rows: &[Row]) -> Result<Vec<u8>> {
     ]
     .map(String::from)
     .to_vec();
-    for m in ["success_rate", "progress", "energy", "smoothness", "steps"] {
+    for m in [
+        "success_rate",
+        "progress",
+        "energy",
+        "smoothness",
+        "steps",
+        "seconds",
+    ] {
         head.extend([m.to_string(), format!("{m}_lo"), format!("{m}_hi")]);
     }
     w.write_record(&head).map_err(bad)?;
@@ -164,7 +175,14 @@ pub fn csv(rows: &[Row]) -> Result<Vec<u8>> {
         match &r.pooled {
             Some(p) => {
                 for e in std::iter::once(p.success).chain(p.metrics) {
-                    row.extend([e.value, e.lo, e.hi].map(|v| format!("{v:.6}")));
+                    // An empty cell for what could not be computed (NaN seconds).
+                    row.extend([e.value, e.lo, e.hi].map(|v| {
+                        if v.is_nan() {
+                            String::new()
+                        } else {
+                            format!("{v:.6}")
+                        }
+                    }));
                 }
             }
             None => row.extend(std::iter::repeat_n(String::new(), 3 * (1 + METRICS))),

@@ -32,7 +32,8 @@
 #   the stage says so and skips. Output goes to SWEEP_DIR/neighbours/<run>/<change>.
 # - curve (not in the default list; exploratory, outside the protocol): each done run's policy
 #   snapshots (`train --policy-every`, policies/update-N.safetensors) evaluated sampled at seed
-#   201 with FRONTIER_CURVE_EPISODES (default 16) episodes on 4 environments, into
+#   201 with FRONTIER_CURVE_EPISODES (default 16) episodes on 4 environments (only the runs of
+#   the points in FRONTIER_CURVE_POINTS, as FRONTIER_NEIGHBOURS, when it is set), into
 #   SWEEP_DIR/curve/<run>/update-N: whether the evaluated policy rises and falls as the
 #   training window does. The protocol's evaluation stays the final policy's.
 # - report: `report --frontier` into SWEEP_DIR/report (frontier.md, frontier.csv): each
@@ -192,6 +193,14 @@ stage_comparators() {
         bash experiments/frontier_check.sh "$CONFIG" "$S/comparators"
 }
 
+# of_points RUN POINTS: whether the run directory RUN (named p<point, zero-padded>_...) is of
+# one of POINTS (point indices separated by spaces or commas, e.g. "3" or "2,3").
+of_points() {
+    local points=" ${2//,/ } "
+    points=$(sed -E 's/ 0+([0-9])/ \1/g' <<<"$points")
+    [[ $(basename "$1") =~ ^p0*([0-9]+)_ ]] && [[ $points == *" ${BASH_REMATCH[1]} "* ]]
+}
+
 stage_neighbours() {
     local run change
     local -A sets=(
@@ -202,13 +211,8 @@ stage_neighbours() {
         say "neighbours: skipped; name the variant(s) in FRONTIER_NEIGHBOURS (point indices; the protocol's is the one report --frontier ranks best)"
         return
     fi
-    # Point indices, separated by spaces or commas, without leading zeros.
-    local points=" ${FRONTIER_NEIGHBOURS//,/ } "
-    points=$(sed -E 's/ 0+([0-9])/ \1/g' <<<"$points")
     for run in $(done_runs); do
-        # Run directories are named p<point, zero-padded>_...
-        [[ $(basename "$run") =~ ^p0*([0-9]+)_ ]] && [[ $points == *" ${BASH_REMATCH[1]} "* ]] ||
-            continue
+        of_points "$run" "$FRONTIER_NEIGHBOURS" || continue
         for change in scale-x0.9 scale-x1.1 thrust-x0.75 thrust-x1.25; do
             episodes_once "$S/neighbours/$(basename "$run")/$change" "$K" \
                 --set "${sets[$change]}" --policy "$S/$run" --envs 4 --seed "$SEED" || true
@@ -220,6 +224,7 @@ stage_neighbours() {
 stage_curve() {
     local run f FRONTIER_EVAL_N=$KC
     for run in $(done_runs); do
+        [ -z "${FRONTIER_CURVE_POINTS:-}" ] || of_points "$run" "$FRONTIER_CURVE_POINTS" || continue
         for f in "$S/$run"/policies/update-*.safetensors; do
             [ -f "$f" ] || continue
             eval_once "$S/curve/$(basename "$run")/$(basename "$f" .safetensors)" \

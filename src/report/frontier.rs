@@ -311,6 +311,29 @@ pub fn constants_under_bar(comparators: &[Comparator]) -> Option<bool> {
     })
 }
 
+/// The variant the protocol names (docs/controllability.md, amendment of 2026-12-03 14:01
+/// UTC): the highest pooled sampled success rate, ties to the lower variant; None before any
+/// sampled evaluation. The flag says whether every run of every variant is evaluated, that is,
+/// whether the ranking is final.
+pub fn ranked_best(rows: &[Row]) -> Option<(&Row, bool)> {
+    let sampled: Vec<&Row> = rows.iter().filter(|r| r.evaluation == "sampled").collect();
+    let complete = sampled.iter().all(|r| r.runs.len() == r.seeds);
+    let mut best: Option<(&Row, f64)> = None;
+    for r in &sampled {
+        let Some(p) = &r.pooled else { continue };
+        let better = match best {
+            None => true,
+            Some((b, rate)) => {
+                p.success.value > rate || (p.success.value == rate && r.variant < b.variant)
+            }
+        };
+        if better {
+            best = Some((r, p.success.value));
+        }
+    }
+    best.map(|(r, _)| (r, complete))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -357,6 +380,39 @@ mod tests {
             (p.success.lo, p.success.value, p.success.hi),
             (1.0, 1.0, 1.0)
         );
+    }
+
+    fn row(variant: usize, evaluation: &str, seeds: usize, runs: &[RunEval]) -> Row {
+        Row {
+            variant,
+            overrides: String::new(),
+            evaluation: evaluation.into(),
+            seeds,
+            runs: runs.to_vec(),
+            pooled: bootstrap(runs, 10, 0),
+        }
+    }
+
+    #[test]
+    fn the_named_variant_has_the_best_pooled_sampled_rate_with_ties_to_the_lower() {
+        assert!(ranked_best(&[]).is_none());
+        let rows = [
+            row(0, "sampled", 2, &[run(1, 40, 0.0), run(3, 40, 0.0)]),
+            // 4/80 as variant 0, so the tie goes to variant 0.
+            row(1, "sampled", 2, &[run(4, 40, 0.0), run(0, 40, 0.0)]),
+            // Better with the mean action only: the rule reads the sampled rows.
+            row(2, "deterministic", 2, &[run(40, 40, 0.0)]),
+            row(2, "sampled", 2, &[run(2, 40, 0.0)]),
+            row(3, "sampled", 2, &[]),
+        ];
+        let (best, complete) = ranked_best(&rows).unwrap();
+        assert_eq!((best.variant, complete), (0, false));
+        let mut rows = rows.to_vec();
+        // Variant 2's second seed, 7/40: (2 + 7)/80 beats 4/80.
+        rows[3] = row(2, "sampled", 2, &[run(2, 40, 0.0), run(7, 40, 0.0)]);
+        rows[4] = row(3, "sampled", 0, &[]);
+        let (best, complete) = ranked_best(&rows).unwrap();
+        assert_eq!((best.variant, complete), (2, true));
     }
 
     #[test]
@@ -496,6 +552,12 @@ mod tests {
             "{md}"
         );
         assert!(md.contains("| wall-angle:40 | yes | 1/2 = 50 %"), "{md}");
+        // Variant 0 (3/4) over variant 1 (0/1), with variant 1's second seed not evaluated.
+        assert!(
+            md.contains("is **variant 0** (75 % [")
+                && md.contains("over 2 of its 2 seeds); provisional"),
+            "{md}"
+        );
         assert!(
             md.contains("| scripted | no | 1/1 = 100 % [21, 100] | 10 | 0.050 |"),
             "{md}"

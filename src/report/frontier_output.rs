@@ -8,7 +8,7 @@ use std::path::Path;
 use super::error::{ReportError, Result};
 use super::frontier::{
     CONSTANT_BAR, Comparator, DRAWS, Estimate, GOAL, METRICS, Row, constants_under_bar, load,
-    policy_name,
+    policy_name, ranked_best,
 };
 use super::map::is_constant;
 use super::stats::wilson95;
@@ -113,6 +113,25 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator], curves: &
             100.0 * CONSTANT_BAR
         ),
     };
+    if let Some((best, complete)) = ranked_best(rows) {
+        md += &format!(
+            "The variant ranked best by the protocol's rule (the highest pooled sampled rate, ties \
+             to the lower variant; in the frontier scenario it names the committed policy, seed 1, \
+             and the neighbours' runs) is **variant {}** ({} over {} of its {} seeds){}.\n\n",
+            best.variant,
+            best.pooled
+                .as_ref()
+                .map(|p| pct(&p.success))
+                .unwrap_or_default(),
+            best.runs.len(),
+            best.seeds,
+            if complete {
+                ""
+            } else {
+                "; provisional: not every run is evaluated yet"
+            }
+        );
+    }
     for r in rows.iter().filter(|r| r.evaluation == "sampled") {
         if let Some(p) = &r.pooled {
             md += &format!(

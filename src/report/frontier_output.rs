@@ -1,7 +1,8 @@
 //! `frontier.md` and `frontier.csv` of `report --frontier` ([`super::frontier`]): one row per
 //! variant and evaluation (the pooled success rate, progress, energy, smoothness and episode
-//! length in control steps and in seconds, each with its 95 % bootstrap interval over seeds, and each seed's successes), the
-//! comparators with their Wilson intervals and episode length, and the protocol's goal.
+//! length in control steps and in seconds, each with its 95 % bootstrap interval over seeds,
+//! and each seed's successes), the comparators with their Wilson intervals and episode length,
+//! the protocol's goal and the variant its rule ranks best.
 
 use std::path::Path;
 
@@ -14,8 +15,16 @@ use super::map::is_constant;
 use super::stats::wilson95;
 use super::training_curve::{self, Curve};
 
-/// `value [lo, hi]` with `decimals`, or `-` for a metric that could not be computed (NaN: an
-/// episode length in seconds of an evaluation without its `config.toml`).
+/// `v` with `decimals`, or `-` for a metric that could not be computed (NaN: an episode
+/// length in seconds of an evaluation without its `config.toml`).
+fn number(v: f64, decimals: usize) -> String {
+    if v.is_nan() {
+        return "-".into();
+    }
+    format!("{v:.decimals$}")
+}
+
+/// `value [lo, hi]` with `decimals`, or `-` as [`number`].
 fn interval(e: &Estimate, decimals: usize) -> String {
     if e.value.is_nan() {
         return "-".into();
@@ -40,8 +49,8 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator], curves: &
          success rate (sum of successes over sum of episodes); progress, energy, smoothness \
          and the episode length (in control steps, and in simulated seconds: steps times the \
          run's control interval, so that variants with another interval compare) as the mean \
-         over seeds of each run's mean. Each comes with its 95 % percentile bootstrap interval over seeds ({DRAWS} resamples). A variant meets the goal when its \
-         pooled sampled rate is at least {:.0} % and every constant comparator's is at most \
+         over seeds of each run's mean. Each comes with its 95 % percentile bootstrap interval \
+         over seeds ({DRAWS} resamples). A variant meets the goal when its pooled sampled rate is at least {:.0} % and every constant comparator's is at most \
          {:.0} %.\n\n",
         100.0 * GOAL,
         100.0 * CONSTANT_BAR
@@ -93,11 +102,7 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator], curves: &
             100.0 * lo,
             100.0 * hi,
             c.mean_steps,
-            if c.mean_seconds.is_nan() {
-                "-".to_string()
-            } else {
-                format!("{:.3}", c.mean_seconds)
-            }
+            number(c.mean_seconds, 3)
         );
     }
     md += "\n## The goal\n\n";

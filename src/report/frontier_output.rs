@@ -2,7 +2,8 @@
 //! variant and evaluation (the pooled success rate, progress, energy, smoothness and episode
 //! length in control steps and in seconds, each with its 95 % bootstrap interval over seeds,
 //! and each seed's successes), the comparators with their Wilson intervals and episode length,
-//! the protocol's goal and the variant its rule ranks best.
+//! the protocol's goal and the variant its rule ranks best, and, where every episode fails,
+//! each variant's lifetime against the longest-lived comparator ([`super::lifetime`]).
 
 use std::path::Path;
 
@@ -11,6 +12,7 @@ use super::frontier::{
     CONSTANT_BAR, Comparator, DRAWS, Estimate, GOAL, METRICS, Row, constants_under_bar, load,
     policy_name, ranked_best,
 };
+use super::lifetime;
 use super::map::is_constant;
 use super::stats::wilson95;
 use super::training_curve::{self, Curve};
@@ -153,7 +155,7 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator], curves: &
             );
         }
     }
-    md + "\n" + &training_curve::markdown(curves)
+    md + "\n" + &lifetime::markdown(rows, comparators) + &training_curve::markdown(curves)
 }
 
 /// `frontier.csv`: one row per variant and evaluation.

@@ -20,6 +20,7 @@ pub mod error;
 pub mod frontier;
 pub mod frontier_output;
 pub mod heatmap;
+pub mod lifetime;
 pub mod map;
 pub mod map_output;
 pub mod markdown;

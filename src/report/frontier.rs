@@ -62,6 +62,10 @@ pub struct Estimate {
 /// The metrics averaged over seeds: progress, energy, smoothness, episode length (steps and
 /// seconds).
 pub const METRICS: usize = 5;
+/// Index of the episode length in control steps in `RunEval::means` and `Pooled::metrics`.
+pub const STEPS: usize = 3;
+/// Index of the episode length in seconds in `RunEval::means` and `Pooled::metrics`.
+pub const SECONDS: usize = 4;
 
 /// The pooled success rate and the metrics over seeds, each with its bootstrap interval.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -271,8 +275,8 @@ pub fn load(root: &Path) -> Result<Frontier> {
                     .into_owned(),
                 successes: e.successes,
                 episodes: e.episodes,
-                mean_steps: e.means[3],
-                mean_seconds: e.means[4],
+                mean_steps: e.means[STEPS],
+                mean_seconds: e.means[SECONDS],
             });
         }
     }

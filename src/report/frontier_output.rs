@@ -9,8 +9,8 @@ use std::path::Path;
 
 use super::error::{ReportError, Result};
 use super::frontier::{
-    CONSTANT_BAR, Comparator, DRAWS, Estimate, GOAL, METRICS, Row, constants_under_bar, load,
-    policy_name, ranked_best,
+    CONSTANT_BAR, Comparator, DRAWS, Estimate, GOAL, METRICS, Row, SECONDS, STEPS,
+    constants_under_bar, load, policy_name, ranked_best,
 };
 use super::lifetime;
 use super::map::is_constant;
@@ -27,7 +27,7 @@ fn number(v: f64, decimals: usize) -> String {
 }
 
 /// `value [lo, hi]` with `decimals`, or `-` as [`number`].
-fn interval(e: &Estimate, decimals: usize) -> String {
+pub(super) fn interval(e: &Estimate, decimals: usize) -> String {
     if e.value.is_nan() {
         return "-".into();
     }
@@ -72,8 +72,8 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator], curves: &
                 interval(&p.metrics[0], 2),
                 interval(&p.metrics[1], 3),
                 interval(&p.metrics[2], 3),
-                interval(&p.metrics[3], 0),
-                interval(&p.metrics[4], 3),
+                interval(&p.metrics[STEPS], 0),
+                interval(&p.metrics[SECONDS], 3),
             ],
             None => ["-", "-", "-", "-", "-", "-", "-"].map(String::from),
         };

@@ -13,10 +13,8 @@
 //! Where any episode succeeds, a success ends its episode early, so the lifetime says nothing
 //! and the section is left out.
 
-use super::frontier::{Comparator, Row, policy_name};
-
-/// Index of the episode length in seconds in `Pooled::metrics` and `RunEval::means`.
-const SECONDS: usize = 4;
+use super::frontier::{Comparator, Row, SECONDS, policy_name};
+use super::frontier_output::interval;
 
 /// The comparator with the longest mean episode in seconds (ties to the first), None when no
 /// comparator's length in seconds is known.
@@ -81,14 +79,12 @@ pub fn markdown(rows: &[Row], comparators: &[Comparator]) -> String {
             continue;
         }
         md += &format!(
-            "| {} | {} | {}/{} | {:.3} [{:.3}, {:.3}] | {:+.3} | {} |\n",
+            "| {} | {} | {}/{} | {} | {:+.3} | {} |\n",
             r.variant,
             r.evaluation,
             r.runs.len(),
             r.seeds,
-            t.value,
-            t.lo,
-            t.hi,
+            interval(&t, 3),
             t.value - best.mean_seconds,
             verdict(t.lo, t.hi, best.mean_seconds)
         );

@@ -43,12 +43,16 @@
 #   assets/results/frontier_learners), the results to commit: sweep.csv, each done run's
 #   config.toml and training episodes.csv (runs/<run>/), and the config.toml and episodes.csv
 #   of every complete evaluation, neighbour, curve point and comparator, in the layout `report --frontier`
-#   reads, then runs the report there (FRONTIER_RESULTS/report). No checkpoint is copied.
+#   reads, then runs the report there (FRONTIER_RESULTS/report). No checkpoint is copied. With
+#   FRONTIER_CURVE_POINTS set, the policy snapshots of those points' done runs are kept too
+#   (snapshots/<run>/update-N.safetensors, about 290 KB each), so the curve can be evaluated
+#   again after a fresh checkout.
 # - restore (not in the default list): the reverse of results, for a fresh checkout whose
 #   SWEEP_DIR is gone (runs/ is not committed): every run FRONTIER_RESULTS/sweep.csv lists as
 #   done gets its directory back (config.toml, episodes.csv, policy.safetensors where results
 #   kept it) with a sweep-task.toml that says done, from the provenance columns; every
-#   complete evaluation, neighbour, curve point and comparator is copied back. Nothing that
+#   complete evaluation, neighbour, curve point and comparator is copied back, and every kept
+#   snapshot goes back into its run's policies/. Nothing that
 #   exists in SWEEP_DIR is overwritten, so it is safe to repeat. A restored run without a
 #   policy cannot be evaluated again (the neighbours stage says so and goes on).
 # The results stage also keeps each done run's policy.safetensors (about 280 KB; the actor and
@@ -264,6 +268,17 @@ stage_results() {
     for d in "$S"/curve/*/*; do
         [ -d "$d" ] && copy_complete "$d" "$R/${d#"$S"/}" "$KC"
     done
+    # The snapshots of the curve's runs, so that a fresh checkout can evaluate them again.
+    if [ -n "${FRONTIER_CURVE_POINTS:-}" ]; then
+        for run in $(done_runs); do
+            of_points "$run" "$FRONTIER_CURVE_POINTS" || continue
+            for f in "$S/$run"/policies/update-*.safetensors; do
+                [ -f "$f" ] || continue
+                mkdir -p "$R/snapshots/$(basename "$run")"
+                cp "$f" "$R/snapshots/$(basename "$run")/"
+            done
+        done
+    fi
     fluxswarm report --frontier "$R" --out "$R/report" >/dev/null
     say "results: $R (report: $R/report/frontier.md)"
 }
@@ -291,6 +306,14 @@ stage_restore() {
     done
     for d in "$R"/curve/*/*; do
         [ -e "$S/${d#"$R"/}" ] || copy_complete "$d" "$S/${d#"$R"/}" "$KC"
+    done
+    # Kept snapshots go back into their run's policies/, where the curve stage reads them.
+    for f in "$R"/snapshots/*/update-*.safetensors; do
+        [ -f "$f" ] || continue
+        dir=$S/runs/$(basename "$(dirname "$f")")
+        [ -d "$dir" ] || { say "restore: $dir is not a run of $S; its snapshots are skipped"; continue; }
+        mkdir -p "$dir/policies"
+        [ -e "$dir/policies/$(basename "$f")" ] || cp "$f" "$dir/policies/"
     done
     fluxswarm sweep --status --out "$S"
     say "restore: $n run(s) restored from $R"

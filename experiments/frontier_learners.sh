@@ -252,15 +252,23 @@ copy_complete() {
 }
 
 stage_results() {
-    local R=${FRONTIER_RESULTS:-assets/results/frontier_learners} run d
+    local R=${FRONTIER_RESULTS:-assets/results/frontier_learners} run d f
     mkdir -p "$R"
-    fluxswarm sweep --status --out "$S" >/dev/null
+    local finished
+    finished=$(done_runs)
     cp "$S/sweep.csv" "$R/sweep.csv"
-    for run in $(done_runs); do
+    for run in $finished; do
         mkdir -p "$R/runs/$(basename "$run")"
         cp "$S/$run/config.toml" "$S/$run/episodes.csv" "$R/runs/$(basename "$run")/"
         [ ! -f "$S/$run/policy.safetensors" ] ||
             cp "$S/$run/policy.safetensors" "$R/runs/$(basename "$run")/"
+        # The snapshots of the curve's runs, so that a fresh checkout can evaluate them again.
+        [ -n "${FRONTIER_CURVE_POINTS:-}" ] && of_points "$run" "$FRONTIER_CURVE_POINTS" || continue
+        for f in "$S/$run"/policies/update-*.safetensors; do
+            [ -f "$f" ] || continue
+            mkdir -p "$R/snapshots/$(basename "$run")"
+            cp "$f" "$R/snapshots/$(basename "$run")/"
+        done
     done
     for d in "$S"/eval/*/* "$S"/neighbours/*/* "$S"/comparators/*; do
         [ -d "$d" ] && copy_complete "$d" "$R/${d#"$S"/}"
@@ -268,17 +276,6 @@ stage_results() {
     for d in "$S"/curve/*/*; do
         [ -d "$d" ] && copy_complete "$d" "$R/${d#"$S"/}" "$KC"
     done
-    # The snapshots of the curve's runs, so that a fresh checkout can evaluate them again.
-    if [ -n "${FRONTIER_CURVE_POINTS:-}" ]; then
-        for run in $(done_runs); do
-            of_points "$run" "$FRONTIER_CURVE_POINTS" || continue
-            for f in "$S/$run"/policies/update-*.safetensors; do
-                [ -f "$f" ] || continue
-                mkdir -p "$R/snapshots/$(basename "$run")"
-                cp "$f" "$R/snapshots/$(basename "$run")/"
-            done
-        done
-    fi
     fluxswarm report --frontier "$R" --out "$R/report" >/dev/null
     say "results: $R (report: $R/report/frontier.md)"
 }

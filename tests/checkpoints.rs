@@ -568,6 +568,27 @@ fn damaged_and_misused_checkpoints_fail_clearly() {
     assert!(o.status.success(), "{t}");
     assert!(t.contains("is corrupt") && t.contains("update 2"), "{t}");
 
+    // An edited config.toml would silently not apply: resume names the key and changes nothing.
+    let record = run.join("config.toml");
+    let original = read(&record);
+    let edited = original.replace("learning_rate = 0.001", "learning_rate = 0.0005");
+    assert_ne!(
+        edited, original,
+        "the record holds the paper's learning rate"
+    );
+    std::fs::write(&record, &edited).unwrap();
+    let before = checkpoint::list(&run.join("checkpoints"));
+    let o = bin(&["train", "--resume", run_s, "--steps", "48"]);
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert!(
+        t.contains("train.learning_rate = 0.0005 (saved: 0.001)") && t.contains("--config"),
+        "{t}"
+    );
+    assert_eq!(checkpoint::list(&run.join("checkpoints")), before);
+    assert_eq!(read(&record), edited);
+    std::fs::write(&record, &original).unwrap();
+
     // Every checkpoint damaged: a clear error naming the file.
     for f in checkpoint::list(&run.join("checkpoints")) {
         let mut b = std::fs::read(&f).unwrap();

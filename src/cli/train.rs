@@ -325,6 +325,7 @@ fn open_checkpoint(dir: &Path, args: &TrainArgs) -> anyhow::Result<(PathBuf, Arc
 fn resume_plan(dir: &Path, archive: &Archive, args: &TrainArgs) -> anyhow::Result<Plan> {
     let mut resolved = Config::from_saved(archive.meta("config")?)
         .with_context(|| format!("the configuration saved in {}", archive.path().display()))?;
+    check_config_record(dir, &resolved.config)?;
     super::common::apply_run_sets(&mut resolved, &args.common.sets, "a resumed run", &[])?;
     let steps = match args.steps {
         Some(s) => s,
@@ -338,6 +339,35 @@ fn resume_plan(dir: &Path, archive: &Archive, args: &TrainArgs) -> anyhow::Resul
         steps,
         policy_every: args.policy_every,
     })
+}
+
+/// `DIR/config.toml` records the run; a resumed run takes the configuration saved in its
+/// checkpoint and never reads the file. An edited record would silently not apply (and would
+/// then misdescribe the run), so resume refuses it, naming the keys. A missing file is fine.
+fn check_config_record(dir: &Path, saved: &Config) -> anyhow::Result<()> {
+    let path = dir.join("config.toml");
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        return Ok(());
+    };
+    let fix = format!(
+        "--resume continues the run with the configuration saved in its checkpoint and does not read {0}: undo the edit to continue it, or start a new run with the change (`fluxswarm-gpu train --config {0} --out NEW_DIR`)",
+        path.display()
+    );
+    let record = Config::from_saved(&text)
+        .with_context(|| format!("{} no longer loads; {fix}", path.display()))?;
+    let changed = saved.differences(&record.config);
+    if !changed.is_empty() {
+        let keys: Vec<String> = changed
+            .iter()
+            .map(|(k, was, now)| format!("{k} = {now} (saved: {was})"))
+            .collect();
+        bail!(
+            "{} was edited after the run started: {}. {fix}",
+            path.display(),
+            keys.join(", ")
+        );
+    }
+    Ok(())
 }
 
 /// Writes `checkpoints/update-NNNNNNN.safetensors` atomically and prunes old ones.

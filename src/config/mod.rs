@@ -227,6 +227,43 @@ impl Config {
     pub fn to_toml(&self) -> String {
         toml::to_string_pretty(self).unwrap_or_default()
     }
+
+    /// The keys (`section.key`) whose values differ between this configuration and `other`,
+    /// in file order, each with this value and the other's as TOML text.
+    pub fn differences(&self, other: &Config) -> Vec<(String, String, String)> {
+        let table = |c: &Config| -> toml::Table {
+            c.to_toml()
+                .parse()
+                .expect("a configuration serialises to valid TOML")
+        };
+        let mut out = Vec::new();
+        diff_tables("", &table(self), &table(other), &mut out);
+        out
+    }
+}
+
+/// Appends to `out` every leaf key under `prefix` whose value differs between `a` and `b`
+/// (a key missing on one side shows as `(none)`).
+fn diff_tables(
+    prefix: &str,
+    a: &toml::Table,
+    b: &toml::Table,
+    out: &mut Vec<(String, String, String)>,
+) {
+    let keys = a.keys().chain(b.keys().filter(|k| !a.contains_key(*k)));
+    for key in keys {
+        let name = format!("{prefix}{key}");
+        match (a.get(key), b.get(key)) {
+            (Some(toml::Value::Table(x)), Some(toml::Value::Table(y))) => {
+                diff_tables(&format!("{name}."), x, y, out)
+            }
+            (x, y) if x != y => {
+                let show = |v: Option<&toml::Value>| v.map_or("(none)".into(), |v| v.to_string());
+                out.push((name, show(x), show(y)));
+            }
+            _ => {}
+        }
+    }
 }
 
 #[cfg(test)]
@@ -276,6 +313,31 @@ mod tests {
             Err(ConfigError::Range { key, .. }) if key == "time.substeps"
         ));
         assert!(base.with_sets(&["swarm.nope=1".into()]).is_err());
+    }
+
+    #[test]
+    fn differences_name_each_changed_key_with_both_values() {
+        let base = Config::paper();
+        assert!(base.differences(&base.clone()).is_empty());
+        let mut other = base.clone();
+        other.train.learning_rate = 0.0;
+        other.domain.nx = 500;
+        // The paper's learning rate is 1e-3 and its grid 1000 cells long (configs/paper.toml).
+        assert_eq!(
+            base.differences(&other),
+            vec![
+                (
+                    "domain.nx".to_string(),
+                    "1000".to_string(),
+                    "500".to_string()
+                ),
+                (
+                    "train.learning_rate".to_string(),
+                    "0.001".to_string(),
+                    "0.0".to_string()
+                ),
+            ]
+        );
     }
 
     #[test]

@@ -175,10 +175,7 @@ impl Config {
     /// This configuration with `section.key=value` overrides applied, validated again (a saved
     /// configuration changed for a transfer test, [`TRANSFER_KEYS`]).
     pub fn with_sets(&self, sets: &[String]) -> Result<Resolved, ConfigError> {
-        let mut table: toml::Table = self
-            .to_toml()
-            .parse()
-            .expect("a configuration serialises to valid TOML");
+        let mut table = self.to_table();
         for arg in sets {
             apply_set(&mut table, arg)?;
         }
@@ -231,14 +228,16 @@ impl Config {
     /// The keys (`section.key`) whose values differ between this configuration and `other`,
     /// in file order, each with this value and the other's as TOML text.
     pub fn differences(&self, other: &Config) -> Vec<(String, String, String)> {
-        let table = |c: &Config| -> toml::Table {
-            c.to_toml()
-                .parse()
-                .expect("a configuration serialises to valid TOML")
-        };
         let mut out = Vec::new();
-        diff_tables("", &table(self), &table(other), &mut out);
+        diff_tables("", &self.to_table(), &other.to_table(), &mut out);
         out
+    }
+
+    /// The resolved configuration as a TOML table, one sub-table per section.
+    fn to_table(&self) -> toml::Table {
+        self.to_toml()
+            .parse()
+            .expect("a configuration serialises to valid TOML")
     }
 }
 

@@ -6,27 +6,24 @@
 //! - `DIR/comparators/<policy>/episodes.csv`.
 //!
 //! For each variant and evaluation (sampled, deterministic, each neighbour), over the S seeds
-//! evaluated:
-//! - the pooled success rate, sum k / sum n;
-//! - progress, energy, smoothness, the episode length in control steps and in simulated seconds
-//!   (steps x `time.control_dt_s` of the evaluation's `config.toml`, so that runs with another
-//!   control interval compare), the mean over seeds of each run's episode mean;
-//! - for each, a 95 % percentile bootstrap over seeds: B resamples of the S seeds with
-//!   replacement (SplitMix64, seed 0), with the 2.5th and 97.5th percentiles of the statistic.
+//! evaluated: the pooled success rate and the mean over seeds of progress, energy, smoothness
+//! and the episode length in control steps and in simulated seconds (steps x
+//! `time.control_dt_s` of the evaluation's `config.toml`, so that runs with another control
+//! interval compare), each with its 95 % bootstrap interval over seeds ([`super::bootstrap`]).
 //!
 //! Comparators get k/n with their successes. The protocol's bar: a variant passes when its
 //! pooled sampled rate is at least 80 % and every constant comparator's is at most 20 %.
-//! `frontier_output` writes `frontier.md` and `frontier.csv`; `training_curve` adds each done
-//! run's training curve from `DIR/runs/<run>/episodes.csv`.
+//! `frontier_output` writes `frontier.md` and `frontier.csv`; `frontier_runs` adds a row per
+//! run, and `training_curve` each done run's training curve from `DIR/runs/<run>/episodes.csv`.
 
 use std::path::{Path, PathBuf};
 
+use super::bootstrap::{METRICS, Pooled, RunEval, SECONDS, STEPS, bootstrap};
 use super::data::{RunInfo, read_episodes};
 use super::error::Result;
 use super::map::is_constant;
 use super::sweep_table::{self, SweepRow};
 use super::training_curve::{self, Curve};
-use crate::rng::Rng;
 
 /// Bootstrap resamples.
 pub const DRAWS: usize = 10_000;
@@ -34,103 +31,6 @@ pub const DRAWS: usize = 10_000;
 pub const GOAL: f64 = 0.8;
 /// The bar every constant comparator must stay at or under for the goal to mean anything.
 pub const CONSTANT_BAR: f64 = 0.2;
-
-/// One run's evaluation: its successes and episodes, and its mean progress, energy, smoothness
-/// and episode length.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RunEval {
-    /// Successful episodes.
-    pub successes: usize,
-    /// Episodes evaluated.
-    pub episodes: usize,
-    /// Mean progress, energy, smoothness, episode length (steps) and episode length (seconds,
-    /// NaN when the evaluation has no `config.toml`) over the episodes.
-    pub means: [f64; METRICS],
-}
-
-/// A statistic with its 95 % bootstrap interval.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Estimate {
-    /// The statistic on the seeds as they are.
-    pub value: f64,
-    /// 2.5th percentile over the resamples.
-    pub lo: f64,
-    /// 97.5th percentile over the resamples.
-    pub hi: f64,
-}
-
-/// The metrics averaged over seeds: progress, energy, smoothness, episode length (steps and
-/// seconds).
-pub const METRICS: usize = 5;
-/// Index of the episode length in control steps in `RunEval::means` and `Pooled::metrics`.
-pub const STEPS: usize = 3;
-/// Index of the episode length in seconds in `RunEval::means` and `Pooled::metrics`.
-pub const SECONDS: usize = 4;
-
-/// The pooled success rate and the metrics over seeds, each with its bootstrap interval.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Pooled {
-    /// sum k / sum n.
-    pub success: Estimate,
-    /// Mean over seeds of progress, energy, smoothness and episode length (steps, seconds).
-    pub metrics: [Estimate; METRICS],
-}
-
-fn statistic(runs: &[RunEval], pick: &[usize]) -> [f64; METRICS + 1] {
-    let (k, n) = pick.iter().fold((0, 0), |(k, n), &i| {
-        (k + runs[i].successes, n + runs[i].episodes)
-    });
-    let mut out = [0.0; METRICS + 1];
-    out[0] = k as f64 / n.max(1) as f64;
-    for m in 0..METRICS {
-        out[m + 1] = pick.iter().map(|&i| runs[i].means[m]).sum::<f64>() / pick.len() as f64;
-    }
-    out
-}
-
-/// The percentile (nearest rank, p in [0, 1]) of sorted values.
-fn percentile(sorted: &[f64], p: f64) -> f64 {
-    let i = ((p * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len()) - 1;
-    sorted[i]
-}
-
-/// The pooled statistics of `runs` with 95 % percentile bootstrap intervals over seeds from
-/// `draws` resamples; None for no runs.
-pub fn bootstrap(runs: &[RunEval], draws: usize, seed: u64) -> Option<Pooled> {
-    if runs.is_empty() {
-        return None;
-    }
-    let s = runs.len();
-    let all: Vec<usize> = (0..s).collect();
-    let point = statistic(runs, &all);
-    let mut rng = Rng::new(seed);
-    let mut samples: [Vec<f64>; METRICS + 1] = Default::default();
-    let mut pick = vec![0; s];
-    for _ in 0..draws {
-        for p in pick.iter_mut() {
-            *p = (rng.next_u64() % s as u64) as usize;
-        }
-        for (v, x) in samples.iter_mut().zip(statistic(runs, &pick)) {
-            v.push(x);
-        }
-    }
-    let est: Vec<Estimate> = samples
-        .iter_mut()
-        .zip(point)
-        .map(|(v, value)| {
-            v.sort_by(f64::total_cmp);
-            Estimate {
-                value,
-                lo: percentile(v, 0.025),
-                hi: percentile(v, 0.975),
-            }
-        })
-        .collect();
-    Some(Pooled {
-        success: est[0],
-        metrics: [est[1], est[2], est[3], est[4], est[5]],
-    })
-}
 
 /// One evaluation of one run, read from its `episodes.csv` (and `config.toml`, for the
 /// control interval); None when `episodes.csv` is absent.
@@ -150,14 +50,19 @@ pub fn read_eval(dir: &Path) -> Result<Option<RunEval>> {
     } else {
         f64::NAN
     };
+    // Sums first, divided once, so that a mean of integer step counts is correctly rounded;
+    // the length in seconds is that mean times the control interval.
     let mut means = [0.0; METRICS];
     for e in &episodes {
-        let steps = e.steps as f64;
-        let values = [e.metrics[0], e.metrics[1], e.metrics[2], steps, steps * dt];
-        for (m, v) in means.iter_mut().zip(values) {
-            *m += v / n;
+        let values = [e.metrics[0], e.metrics[1], e.metrics[2], e.steps as f64];
+        for (s, v) in means.iter_mut().zip(values) {
+            *s += v;
         }
     }
+    for m in &mut means[..SECONDS] {
+        *m /= n;
+    }
+    means[SECONDS] = means[STEPS] * dt;
     Ok(Some(RunEval {
         successes: episodes.iter().filter(|e| e.outcome == "success").count(),
         episodes: episodes.len(),
@@ -178,6 +83,8 @@ pub struct Row {
     pub seeds: usize,
     /// Each evaluated run's result.
     pub runs: Vec<RunEval>,
+    /// The seed of each of `runs`, as sweep.csv gives it.
+    pub run_seeds: Vec<String>,
     /// Pooled over the evaluated runs.
     pub pooled: Option<Pooled>,
 }
@@ -245,6 +152,7 @@ pub fn load(root: &Path) -> Result<Frontier> {
         for v in 0..variants {
             let of: Vec<&SweepRow> = runs.iter().filter(|r| r.point == v).collect();
             let mut evals = Vec::new();
+            let mut run_seeds = Vec::new();
             for r in &of {
                 let dir = match evaluation.strip_prefix("neighbours/") {
                     Some(change) => root.join("neighbours").join(r.name()).join(change),
@@ -252,6 +160,7 @@ pub fn load(root: &Path) -> Result<Frontier> {
                 };
                 if let Some(e) = read_eval(&dir)? {
                     evals.push(e);
+                    run_seeds.push(r.seed.clone());
                 }
             }
             rows.push(Row {
@@ -261,6 +170,7 @@ pub fn load(root: &Path) -> Result<Frontier> {
                 seeds: of.len(),
                 pooled: bootstrap(&evals, DRAWS, 0),
                 runs: evals,
+                run_seeds,
             });
         }
     }
@@ -341,50 +251,7 @@ pub fn ranked_best(rows: &[Row]) -> Option<(&Row, bool)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn run(k: usize, n: usize, progress: f64) -> RunEval {
-        RunEval {
-            successes: k,
-            episodes: n,
-            // Every episode of the directories `episodes` writes lasts 10 steps; with no
-            // config.toml its length in seconds is unknown.
-            means: [progress, 0.5, 0.25, 10.0, f64::NAN],
-        }
-    }
-
-    #[test]
-    fn the_pooled_rate_is_successes_over_episodes_and_metrics_average_over_seeds() {
-        let runs = [run(10, 40, 1.0), run(30, 40, 3.0), run(20, 20, 8.0)];
-        let p = bootstrap(&runs, 2000, 7).unwrap();
-        assert_eq!(p.success.value, 60.0 / 100.0);
-        assert_eq!(p.metrics[0].value, 4.0);
-        assert_eq!(p.metrics[1].value, 0.5);
-        // Every resample pools some of the three runs: between 10/40 and 20/20.
-        assert!(p.success.lo >= 0.25 && p.success.hi <= 1.0);
-        assert!(p.success.lo < p.success.value && p.success.value < p.success.hi);
-        // Constant metric across seeds: a zero-width interval.
-        assert_eq!((p.metrics[1].lo, p.metrics[1].hi), (0.5, 0.5));
-        assert!(bootstrap(&[], 10, 0).is_none());
-    }
-
-    #[test]
-    fn two_seeds_give_the_hand_computed_bootstrap_distribution() {
-        // Two seeds, 0/10 and 10/10: a resample is both of one seed (rate 0 or 1, each with
-        // probability 1/4) or one of each (rate 1/2). So the 2.5th percentile is 0 and the
-        // 97.5th is 1.
-        let runs = [run(0, 10, 0.0), run(10, 10, 1.0)];
-        let p = bootstrap(&runs, 20_000, 3).unwrap();
-        assert_eq!(
-            (p.success.lo, p.success.value, p.success.hi),
-            (0.0, 0.5, 1.0)
-        );
-        // One seed: every resample is that seed.
-        let p = bootstrap(&runs[1..], 100, 3).unwrap();
-        assert_eq!(
-            (p.success.lo, p.success.value, p.success.hi),
-            (1.0, 1.0, 1.0)
-        );
-    }
+    use crate::report::bootstrap::tests::run;
 
     fn row(variant: usize, evaluation: &str, seeds: usize, runs: &[RunEval]) -> Row {
         Row {
@@ -393,6 +260,7 @@ mod tests {
             evaluation: evaluation.into(),
             seeds,
             runs: runs.to_vec(),
+            run_seeds: (1..=runs.len()).map(|s| s.to_string()).collect(),
             pooled: bootstrap(runs, 10, 0),
         }
     }
@@ -417,14 +285,6 @@ mod tests {
         rows[4] = row(3, "sampled", 0, &[]);
         let (best, complete) = ranked_best(&rows).unwrap();
         assert_eq!((best.variant, complete), (2, true));
-    }
-
-    #[test]
-    fn percentile_is_the_nearest_rank() {
-        let v: Vec<f64> = (1..=40).map(f64::from).collect();
-        assert_eq!(percentile(&v, 0.025), 1.0);
-        assert_eq!(percentile(&v, 0.975), 39.0);
-        assert_eq!(percentile(&v, 0.5), 20.0);
     }
 
     #[test]
@@ -568,6 +428,11 @@ mod tests {
         );
         assert!(
             md.contains("| 10 [10, 10] | 0.125 [0.050, 0.200] |"),
+            "{md}"
+        );
+        // The per-run rows carry sweep.csv's seeds: variant 0 seed 2, 2/2 in 10 steps of 20 ms.
+        assert!(
+            md.contains("| 0 | 2 | - | - | - | 2/2 | 10.00 (0.200 s) | 5.0 | - |"),
             "{md}"
         );
         // Variant 1's one run has no config.toml: its seconds are unknown, not zero.

@@ -2,16 +2,18 @@
 //! variant and evaluation (the pooled success rate, progress, energy, smoothness and episode
 //! length in control steps and in seconds, each with its 95 % bootstrap interval over seeds,
 //! and each seed's successes), the comparators with their Wilson intervals and episode length,
-//! the protocol's goal and the variant its rule ranks best, and, where every episode fails,
-//! each variant's lifetime against the longest-lived comparator ([`super::lifetime`]).
+//! the protocol's goal and the variant its rule ranks best, where every episode fails each
+//! variant's lifetime against the longest-lived comparator ([`super::lifetime`]), then a row per
+//! run ([`super::frontier_runs`]) and the training curves ([`super::training_curve`]).
 
 use std::path::Path;
 
+use super::bootstrap::{Estimate, METRICS, SECONDS, STEPS};
 use super::error::{ReportError, Result};
 use super::frontier::{
-    CONSTANT_BAR, Comparator, DRAWS, Estimate, GOAL, METRICS, Row, SECONDS, STEPS,
-    constants_under_bar, load, policy_name, ranked_best,
+    CONSTANT_BAR, Comparator, DRAWS, GOAL, Row, constants_under_bar, load, policy_name, ranked_best,
 };
+use super::frontier_runs;
 use super::lifetime;
 use super::map::is_constant;
 use super::stats::wilson95;
@@ -155,7 +157,10 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator], curves: &
             );
         }
     }
-    md + "\n" + &lifetime::markdown(rows, comparators) + &training_curve::markdown(curves)
+    md + "\n"
+        + &lifetime::markdown(rows, comparators)
+        + &frontier_runs::markdown(rows, curves)
+        + &training_curve::markdown(curves)
 }
 
 /// `frontier.csv`: one row per variant and evaluation.

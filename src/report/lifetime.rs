@@ -13,7 +13,8 @@
 //! Where any episode succeeds, a success ends its episode early, so the lifetime says nothing
 //! and the section is left out.
 
-use super::frontier::{Comparator, Row, SECONDS, policy_name};
+use super::bootstrap::SECONDS;
+use super::frontier::{Comparator, Row, policy_name};
 use super::frontier_output::interval;
 
 /// The comparator with the longest mean episode in seconds (ties to the first), None when no
@@ -95,7 +96,7 @@ pub fn markdown(rows: &[Row], comparators: &[Comparator]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::report::frontier::{RunEval, bootstrap};
+    use crate::report::bootstrap::{RunEval, bootstrap};
 
     fn comparator(policy: &str, successes: usize, seconds: f64) -> Comparator {
         Comparator {
@@ -122,6 +123,7 @@ mod tests {
             evaluation: "sampled".into(),
             seeds: 5,
             runs: runs.to_vec(),
+            run_seeds: (1..=runs.len()).map(|s| s.to_string()).collect(),
             pooled: bootstrap(runs, 1000, 0),
         }
     }

@@ -15,10 +15,12 @@
 pub mod analysis;
 pub mod behaviour;
 pub mod behaviour_output;
+pub mod bootstrap;
 pub mod data;
 pub mod error;
 pub mod frontier;
 pub mod frontier_output;
+pub mod frontier_runs;
 pub mod heatmap;
 pub mod lifetime;
 pub mod map;

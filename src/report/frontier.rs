@@ -9,7 +9,8 @@
 //! evaluated: the pooled success rate and the mean over seeds of progress, energy, smoothness
 //! and the episode length in control steps and in simulated seconds (steps x
 //! `time.control_dt_s` of the evaluation's `config.toml`, so that runs with another control
-//! interval compare), each with its 95 % bootstrap interval over seeds ([`super::bootstrap`]).
+//! interval compare), each with its 95 % bootstrap interval over seeds ([`super::bootstrap`],
+//! `DRAWS` resamples from seed 0).
 //!
 //! Comparators get k/n with their successes. The protocol's bar: a variant passes when its
 //! pooled sampled rate is at least 80 % and every constant comparator's is at most 20 %.

@@ -479,9 +479,33 @@ fn behaviour_measures_the_ratchet_throttling_and_approach() {
         md.contains("| 80 | 60.0 ± 0.0 | 0.50 | 1.00 | 722 | 40.0 ± 0.0 | 1.00 | 0.50 |"),
         "{md}"
     );
+    // By phase: the tenth 0.0-0.1 holds steps 0-19, 200-219 and 400 (steps 20 and 220 sit at
+    // phase 0.1), so 38 forward steps at 60 deg, all towards y = 0, and 3 rest steps at 40 deg,
+    // one member of two towards y = 0: 4800 / 82 = 58.5 deg, 79 / 82 = 0.96, and a mean inlet
+    // of (38 x 400 + 3 x 8) / 41 = 371.3 mm/s. The tenths from 0.2 on are all rest.
+    assert!(
+        md.contains("| inlet (mm/s) | 371.3 | ") && md.contains(" | 58.5 (0.96) | "),
+        "{md}"
+    );
+    assert_eq!(md.matches("40.0 (0.50)").count(), 8, "{md}");
     // The last 40 steps (0.2 s) spread twice as wide as the 361 rows before.
     assert!(md.contains("| 1 | 40 | 2.00 | 2.00 | 1/1 |"), "{md}");
-    for f in ["ratchet.png", "throttling.png", "approach.png"] {
+    let phase_csv = std::fs::read_to_string(out.join("thrust_phase.csv")).unwrap();
+    assert_eq!(phase_csv.lines().count(), 11, "{phase_csv}");
+    assert!(
+        phase_csv
+            .lines()
+            .nth(1)
+            .unwrap()
+            .contains(",0.00,0.10,82,371.32,58.54,"),
+        "{phase_csv}"
+    );
+    for f in [
+        "ratchet.png",
+        "throttling.png",
+        "approach.png",
+        "thrust_phase.png",
+    ] {
         let img = image::open(out.join(f)).unwrap();
         assert_eq!(img.width(), 1000, "{f}");
         assert!(md.contains(&format!("![{f}]({f})")), "{f}");

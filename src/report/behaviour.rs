@@ -17,7 +17,8 @@
 //!
 //! - **Thrust direction** ([`super::thrust`], with `trajectories.csv`): the angle of the applied
 //!   thrust from upstream and the shares towards the nearer and the lower wall, in forward
-//!   flow and the rest: a constant controller keeps them, `scripted` switches them.
+//!   flow and the rest: a constant controller keeps them, `scripted` switches them; and by
+//!   phase of the cycle ([`super::thrust_phase`]).
 //!
 //! Only finished episodes count (`RolloutRun` drops the rest), and not the diverged ones, whose
 //! last rows hold no finite positions.
@@ -372,7 +373,7 @@ pub fn load(dir: &Path) -> Result<Behaviour> {
         .collect();
     let throttling = throttling(&run.swarm, &gap, threshold_m_s);
     let mid_y_mm = 0.5e3 * read_config_number(dir, "domain", "height_m")?;
-    let pushes = thrust::read_pushes(dir, &run.swarm, &finished)?;
+    let pushes = thrust::read_pushes(dir, &run.swarm, &finished, period_s)?;
     let thrust = thrust::measure(&pushes, threshold_m_s, mid_y_mm);
     let k = steps_in(APPROACH_S, run.info.control_dt_s);
     let approach = approach(&episodes, &successful, k);

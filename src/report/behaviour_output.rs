@@ -6,7 +6,9 @@
 //! - `throttling.png`: sigma_x and sigma_y against time with the inlet and, with `gap.csv`, the
 //!   peak fluid u_x within the swarm's extent against the inlet centreline velocity;
 //! - `approach.png` (with `trajectories.csv` and a success): every member's x over the last
-//!   second of the subject's longest successful episode, with the success line.
+//!   second of the subject's longest successful episode, with the success line;
+//! - `thrust_phase.png` and `thrust_phase.csv` (with `trajectories.csv`): every directory's
+//!   thrust angle by phase of the cycle ([`super::thrust_phase`]).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -15,7 +17,7 @@ use super::behaviour::{self, APPROACH_S, Behaviour};
 use super::data::Csv;
 use super::error::{ReportError, Result};
 use super::plot::{self, Curve, Panel, Reference, Secondary};
-use super::thrust;
+use super::{thrust, thrust_phase};
 
 const PALETTE: [plotters::style::RGBColor; 7] = [
     plot::BLUE,
@@ -125,6 +127,7 @@ pub fn markdown(list: &[Behaviour], figures: &[String]) -> String {
             cells(t.map(|t| &t.rest))
         );
     }
+    md += &thrust_phase::markdown(list);
     md += &format!(
         "\n## Final approach (successes of at least {} s)\n\n| directory | episodes | steps in the last {APPROACH_S} s | sigma_x last / before | R_g last / before | spreading (ratio > 1) |\n|---|---|---|---|---|---|\n",
         2.0 * APPROACH_S
@@ -154,7 +157,8 @@ pub fn markdown(list: &[Behaviour], figures: &[String]) -> String {
     {
         md += &format!(
             "\nFigures: environment {env}, episode {episode} of the first directory (its longest \
-             finished episode); `approach.png`: its longest successful episode.\n\n"
+             finished episode); `approach.png`: its longest successful episode; \
+             `thrust_phase.png`: every directory.\n\n"
         );
         for f in figures {
             md += &format!("![{f}]({f})\n");
@@ -406,7 +410,9 @@ pub fn write(dirs: &[std::path::PathBuf], out: &Path) -> Result<Vec<String>> {
         .iter()
         .map(|d| behaviour::load(d))
         .collect::<Result<_>>()?;
-    let names = figures(&list[0], out)?;
+    let mut names = figures(&list[0], out)?;
+    names.extend(thrust_phase::figure(&list, out, &PALETTE)?);
+    thrust_phase::write_csv(&list, out)?;
     let md_path = out.join("behaviour.md");
     std::fs::write(&md_path, markdown(&list, &names)).map_err(ReportError::write(&md_path))?;
     let csv_path = out.join("behaviour.csv");

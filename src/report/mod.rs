@@ -31,6 +31,7 @@ pub mod stats;
 pub mod sweep;
 pub mod sweep_table;
 pub mod thrust;
+pub mod thrust_phase;
 pub mod training_curve;
 
 use std::path::{Path, PathBuf};

@@ -8,12 +8,14 @@
 //! - A member-step is forward flow when its step's inlet velocity (`swarm.csv`) exceeds the
 //!   directory's threshold ([`super::behaviour`]). Member-steps without thrust (a = 0) are
 //!   left out.
+//! - The same by phase of the inlet cycle: [`super::thrust_phase`].
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
 use super::data::{Csv, SwarmStep};
 use super::error::{ReportError, Result};
+use super::thrust_phase::{self, PHASE_BINS, PhaseBin};
 
 /// The thrust direction over one set of member-steps.
 #[derive(Debug, Clone, PartialEq)]
@@ -37,6 +39,8 @@ pub struct Thrust {
     pub forward: Direction,
     /// The other member-steps.
     pub rest: Direction,
+    /// All of them by phase of the cycle, in [`PHASE_BINS`] bins.
+    pub by_phase: Vec<PhaseBin>,
 }
 
 /// One member's action at one step.
@@ -46,6 +50,8 @@ pub struct Push {
     pub inlet_u_m_s: f64,
     /// The member's height (mm).
     pub y_mm: f64,
+    /// The step's fraction of the inlet cycle, in [0, 1).
+    pub phase: f64,
     /// The action (a_x, a_y).
     pub a: [f64; 2],
 }
@@ -55,8 +61,19 @@ pub fn angle_deg(a: [f64; 2]) -> f64 {
     a[1].abs().atan2(-a[0]).to_degrees()
 }
 
-fn direction(pushes: &[&Push], mid_y_mm: f64) -> Direction {
+/// The direction of `pushes` in a channel of mid-height `mid_y_mm`; none (0 member-steps,
+/// NaNs) when there are none.
+pub fn direction_of(pushes: &[&Push], mid_y_mm: f64) -> Direction {
     let n = pushes.len();
+    if n == 0 {
+        return Direction {
+            member_steps: 0,
+            mean_deg: f64::NAN,
+            sd_deg: f64::NAN,
+            nearer_wall: f64::NAN,
+            lower_wall: f64::NAN,
+        };
+    }
     let share =
         |f: &dyn Fn(&Push) -> bool| pushes.iter().filter(|p| f(p)).count() as f64 / n as f64;
     let angles: Vec<f64> = pushes.iter().map(|p| angle_deg(p.a)).collect();
@@ -78,32 +95,25 @@ pub fn measure(pushes: &[Push], threshold: f64, mid_y_mm: f64) -> Option<Thrust>
     if with_thrust.is_empty() {
         return None;
     }
+    let by_phase = thrust_phase::by_phase(&with_thrust, mid_y_mm, PHASE_BINS);
     let (forward, rest): (Vec<&Push>, Vec<&Push>) = with_thrust
         .into_iter()
         .partition(|p| p.inlet_u_m_s > threshold);
-    let none = || Direction {
-        member_steps: 0,
-        mean_deg: f64::NAN,
-        sd_deg: f64::NAN,
-        nearer_wall: f64::NAN,
-        lower_wall: f64::NAN,
-    };
-    let side = |v: &[&Push]| match v.is_empty() {
-        true => none(),
-        false => direction(v, mid_y_mm),
-    };
     Some(Thrust {
-        forward: side(&forward),
-        rest: side(&rest),
+        forward: direction_of(&forward, mid_y_mm),
+        rest: direction_of(&rest, mid_y_mm),
+        by_phase,
     })
 }
 
-/// The pushes of `dir/trajectories.csv` in the episodes of `keep`, each with its step's inlet
-/// velocity from `swarm`; none when the file is absent or has no action columns.
+/// The pushes of `dir/trajectories.csv` in the episodes of `keep` (episode -> start phase, s),
+/// each with its step's inlet velocity and phase in a cycle of `period_s` from `swarm`; none
+/// when the file is absent or has no action columns.
 pub fn read_pushes(
     dir: &Path,
     swarm: &[SwarmStep],
     keep: &BTreeMap<(usize, u64), f64>,
+    period_s: f64,
 ) -> Result<Vec<Push>> {
     let path = dir.join("trajectories.csv");
     if !path.exists() {
@@ -122,16 +132,16 @@ pub fn read_pushes(
         c.column::<u64>("episode")?,
         c.column::<u64>("step")?,
     );
-    let inlet: HashMap<(usize, u64, u64), f64> = swarm
+    let inlet: HashMap<(usize, u64, u64), (f64, f64)> = swarm
         .iter()
-        .map(|s| ((s.env, s.episode, s.step), s.inlet_u_m_s))
+        .map(|s| ((s.env, s.episode, s.step), (s.inlet_u_m_s, s.t_s)))
         .collect();
     let mut out = Vec::new();
     for r in 0..c.rows.len() {
-        if !keep.contains_key(&(env[r], episode[r])) {
+        let Some(&phase0) = keep.get(&(env[r], episode[r])) else {
             continue;
-        }
-        let Some(&u) = inlet.get(&(env[r], episode[r], step[r])) else {
+        };
+        let Some(&(u, t_s)) = inlet.get(&(env[r], episode[r], step[r])) else {
             return Err(ReportError::Invalid(format!(
                 "{}: step {} of episode {} of environment {} has no swarm.csv row",
                 path.display(),
@@ -143,6 +153,7 @@ pub fn read_pushes(
         out.push(Push {
             inlet_u_m_s: u,
             y_mm: y[r],
+            phase: thrust_phase::cycle_fraction(phase0 + t_s, period_s),
             a: [ax[r], ay[r]],
         });
     }
@@ -172,11 +183,13 @@ mod tests {
             Push {
                 inlet_u_m_s: 0.4,
                 y_mm: 0.5,
+                phase: 0.1,
                 a: [-c60, -s60],
             },
             Push {
                 inlet_u_m_s: 0.4,
                 y_mm: 1.5,
+                phase: 0.1,
                 a: [-c60, -s60],
             },
             // The rest: 40 and 20 deg, each towards its nearer wall; one member-step without
@@ -184,16 +197,19 @@ mod tests {
             Push {
                 inlet_u_m_s: 0.01,
                 y_mm: 0.5,
+                phase: 0.5,
                 a: [-c40, -s40],
             },
             Push {
                 inlet_u_m_s: 0.01,
                 y_mm: 1.5,
+                phase: 0.5,
                 a: [-(20f64.to_radians().cos()), 20f64.to_radians().sin()],
             },
             Push {
                 inlet_u_m_s: 0.01,
                 y_mm: 1.5,
+                phase: 0.5,
                 a: [0.0, 0.0],
             },
         ];

@@ -32,7 +32,8 @@ const PALETTE: [plotters::style::RGBColor; 7] = [
 /// The time shown in `approach.png` (s).
 const APPROACH_WINDOW_S: f64 = 1.0;
 
-fn num(v: f64, digits: usize) -> String {
+/// `v` with `digits` decimals, or "-" when it is not finite.
+pub(super) fn num(v: f64, digits: usize) -> String {
     if v.is_finite() {
         format!("{v:.digits$}")
     } else {

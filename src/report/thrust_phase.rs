@@ -1,7 +1,8 @@
 //! The thrust direction against the phase of the inlet cycle (issue 19, item 5: does a policy
 //! turn with the flow, and when?), for `report --behaviour`.
 //! - A member-step's phase is the fraction of the cycle phi = frac((phi_0 + t) / T), phi_0 the
-//!   episode's start phase and t the step's time (`starts.csv`, `swarm.csv`), T the period.
+//!   episode's start phase and t the step's time (`starts.csv`, `swarm.csv`), T the period;
+//!   the cycle is counted as the ratchet measure counts it (`behaviour::cycle_of`).
 //! - The cycle is cut into [`PHASE_BINS`] equal bins [i/B, (i+1)/B); each gets the
 //!   [`Direction`] of its member-steps with thrust (angle from upstream, shares towards the
 //!   nearer and the lower wall) and their mean inlet velocity.
@@ -11,7 +12,8 @@
 
 use std::path::Path;
 
-use super::behaviour::Behaviour;
+use super::behaviour::{Behaviour, cycle_of};
+use super::behaviour_output::num;
 use super::error::{ReportError, Result};
 use super::plot::{self, Curve, Panel, Secondary};
 use super::thrust::{Direction, Push, direction_of};
@@ -33,10 +35,10 @@ pub struct PhaseBin {
 }
 
 /// The fraction of the cycle, in [0, 1), at `abs_s` seconds from phase 0 of a cycle of
-/// `period_s`.
+/// `period_s`: the time since the start of the cycle [`cycle_of`] counts it in, so a step
+/// that the ratchet measure puts in the next cycle is at phase 0 here, not just below 1.
 pub fn cycle_fraction(abs_s: f64, period_s: f64) -> f64 {
-    let c = abs_s / period_s;
-    c - c.floor()
+    (abs_s / period_s - cycle_of(abs_s, period_s) as f64).max(0.0)
 }
 
 /// The thrust direction of `pushes` (member-steps with thrust) in `bins` equal bins of the
@@ -60,14 +62,6 @@ pub fn by_phase(pushes: &[&Push], mid_y_mm: f64, bins: usize) -> Vec<PhaseBin> {
             direction: direction_of(g, mid_y_mm),
         })
         .collect()
-}
-
-fn num(v: f64, digits: usize) -> String {
-    if v.is_finite() {
-        format!("{v:.digits$}")
-    } else {
-        "-".into()
-    }
 }
 
 fn bins_of(b: &Behaviour) -> &[PhaseBin] {
@@ -227,6 +221,9 @@ mod tests {
         assert!((cycle_fraction(0.2 + 0.75, 0.5) - 0.9).abs() < 1e-12);
         assert_eq!(cycle_fraction(2.0, 1.0), 0.0);
         assert!((cycle_fraction(-0.25, 1.0) - 0.75).abs() < 1e-12);
+        // Just below a cycle's end, where `cycle_of` already counts the next cycle.
+        assert_eq!(cycle_of(3.0 - 1e-12, 1.0), 3);
+        assert_eq!(cycle_fraction(3.0 - 1e-12, 1.0), 0.0);
     }
 
     #[test]

@@ -5,7 +5,9 @@
 //! - each metric, the mean over seeds of m_s;
 //! - for each, a 95 % percentile bootstrap over seeds: B resamples of the S seeds with
 //!   replacement (SplitMix64 from a given seed), with the 2.5th and 97.5th percentiles
-//!   (nearest rank) of the statistic.
+//!   (nearest rank) of the statistic;
+//! - for two variants A and B, the difference of each statistic, A − B, with the same
+//!   interval from resamples that draw A's seeds and B's seeds independently.
 
 use crate::rng::Rng;
 
@@ -68,23 +70,25 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
     sorted[i]
 }
 
-/// The pooled statistics of `runs` with 95 % percentile bootstrap intervals over seeds from
-/// `draws` resamples; None for no runs.
-pub fn bootstrap(runs: &[RunEval], draws: usize, seed: u64) -> Option<Pooled> {
-    if runs.is_empty() {
-        return None;
-    }
-    let s = runs.len();
-    let all: Vec<usize> = (0..s).collect();
-    let point = statistic(runs, &all);
+/// Indices of `n` runs drawn with replacement.
+fn resample(rng: &mut Rng, n: usize) -> Vec<usize> {
+    (0..n)
+        .map(|_| (rng.next_u64() % n as u64) as usize)
+        .collect()
+}
+
+/// Each statistic of `point` with the 2.5th and 97.5th percentiles of `draws` resampled values
+/// of it from `draw`.
+fn intervals(
+    point: [f64; METRICS + 1],
+    draws: usize,
+    seed: u64,
+    mut draw: impl FnMut(&mut Rng) -> [f64; METRICS + 1],
+) -> Pooled {
     let mut rng = Rng::new(seed);
     let mut samples: [Vec<f64>; METRICS + 1] = Default::default();
-    let mut pick = vec![0; s];
     for _ in 0..draws {
-        for p in pick.iter_mut() {
-            *p = (rng.next_u64() % s as u64) as usize;
-        }
-        for (v, x) in samples.iter_mut().zip(statistic(runs, &pick)) {
+        for (v, x) in samples.iter_mut().zip(draw(&mut rng)) {
             v.push(x);
         }
     }
@@ -100,10 +104,40 @@ pub fn bootstrap(runs: &[RunEval], draws: usize, seed: u64) -> Option<Pooled> {
             }
         })
         .collect();
-    Some(Pooled {
+    Pooled {
         success: est[0],
         metrics: [est[1], est[2], est[3], est[4], est[5]],
-    })
+    }
+}
+
+/// The pooled statistics of `runs` with 95 % percentile bootstrap intervals over seeds from
+/// `draws` resamples; None for no runs.
+pub fn bootstrap(runs: &[RunEval], draws: usize, seed: u64) -> Option<Pooled> {
+    if runs.is_empty() {
+        return None;
+    }
+    let all: Vec<usize> = (0..runs.len()).collect();
+    let point = statistic(runs, &all);
+    Some(intervals(point, draws, seed, |rng| {
+        statistic(runs, &resample(rng, runs.len()))
+    }))
+}
+
+/// The difference `a` − `b` of two variants' pooled statistics (success rate and each metric),
+/// with a 95 % percentile bootstrap interval from `draws` resamples that draw each variant's
+/// seeds independently (the runs of two variants are independent trainings); None when either
+/// has no runs.
+pub fn difference(a: &[RunEval], b: &[RunEval], draws: usize, seed: u64) -> Option<Pooled> {
+    if a.is_empty() || b.is_empty() {
+        return None;
+    }
+    let minus = |x: [f64; METRICS + 1], y: [f64; METRICS + 1]| std::array::from_fn(|i| x[i] - y[i]);
+    let (all_a, all_b): (Vec<usize>, Vec<usize>) = ((0..a.len()).collect(), (0..b.len()).collect());
+    let point = minus(statistic(a, &all_a), statistic(b, &all_b));
+    Some(intervals(point, draws, seed, |rng| {
+        let (pa, pb) = (resample(rng, a.len()), resample(rng, b.len()));
+        minus(statistic(a, &pa), statistic(b, &pb))
+    }))
 }
 
 #[cfg(test)]
@@ -153,6 +187,35 @@ pub(crate) mod tests {
             (p.success.lo, p.success.value, p.success.hi),
             (1.0, 1.0, 1.0)
         );
+    }
+
+    #[test]
+    fn a_difference_resamples_each_variant_and_subtracts_by_hand() {
+        // A: 0/10 and 10/10 (a resample pools to 0, 1/2 or 1); B: one seed at 5/10. So A − B
+        // is −1/2, 0 or +1/2 with probabilities 1/4, 1/2, 1/4: the 2.5th percentile is −1/2
+        // and the 97.5th +1/2.
+        let a = [run(0, 10, 0.0), run(10, 10, 2.0)];
+        let b = [run(5, 10, 4.0)];
+        let d = difference(&a, &b, 20_000, 5).unwrap();
+        assert_eq!(
+            (d.success.lo, d.success.value, d.success.hi),
+            (-0.5, 0.0, 0.5)
+        );
+        // Progress: A's mean over seeds 1.0 against B's 4.0; A's resamples give 0, 1 or 2.
+        assert_eq!(
+            (d.metrics[0].lo, d.metrics[0].value, d.metrics[0].hi),
+            (-4.0, -3.0, -2.0)
+        );
+        // Energy is 0.5 in every run: a difference of exactly 0.
+        assert_eq!(
+            (d.metrics[1].lo, d.metrics[1].value, d.metrics[1].hi),
+            (0.0, 0.0, 0.0)
+        );
+        // Swapping the variants negates the difference.
+        let e = difference(&b, &a, 20_000, 5).unwrap();
+        assert_eq!(e.success.value, 0.0);
+        assert_eq!(e.metrics[0].value, 3.0);
+        assert!(difference(&a, &[], 10, 0).is_none() && difference(&[], &b, 10, 0).is_none());
     }
 
     #[test]

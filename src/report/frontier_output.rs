@@ -2,17 +2,20 @@
 //! variant and evaluation (the pooled success rate, progress, energy, smoothness and episode
 //! length in control steps and in seconds, each with its 95 % bootstrap interval over seeds,
 //! and each seed's successes), the comparators with their Wilson intervals and episode length,
-//! the protocol's goal and the variant its rule ranks best, where every episode fails each
-//! variant's lifetime against the longest-lived comparator ([`super::lifetime`]), then a row per
-//! run ([`super::frontier_runs`]) and the training curves ([`super::training_curve`]).
+//! the protocol's goal and the variant its rule ranks best,
+//! each variant against the first ([`super::frontier_differences`], also
+//! `frontier_differences.csv`), each variant's lifetime against the longest-lived comparator
+//! where every episode fails ([`super::lifetime`]), then a row per run
+//! ([`super::frontier_runs`]) and the training curves ([`super::training_curve`]).
 
 use std::path::Path;
 
-use super::bootstrap::{Estimate, METRICS, SECONDS, STEPS};
+use super::bootstrap::{Estimate, SECONDS, STEPS};
 use super::error::{ReportError, Result};
 use super::frontier::{
     CONSTANT_BAR, Comparator, DRAWS, GOAL, Row, constants_under_bar, load, policy_name, ranked_best,
 };
+use super::frontier_differences::{self, statistic_cells, statistic_header};
 use super::frontier_runs;
 use super::lifetime;
 use super::map::is_constant;
@@ -158,6 +161,7 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator], curves: &
         }
     }
     md + "\n"
+        + &frontier_differences::markdown(&frontier_differences::against_first(rows))
         + &lifetime::markdown(rows, comparators)
         + &frontier_runs::markdown(rows, curves)
         + &training_curve::markdown(curves)
@@ -178,16 +182,7 @@ pub fn csv(rows: &[Row]) -> Result<Vec<u8>> {
     ]
     .map(String::from)
     .to_vec();
-    for m in [
-        "success_rate",
-        "progress",
-        "energy",
-        "smoothness",
-        "steps",
-        "seconds",
-    ] {
-        head.extend([m.to_string(), format!("{m}_lo"), format!("{m}_hi")]);
-    }
+    head.extend(statistic_header());
     w.write_record(&head).map_err(bad)?;
     for r in rows {
         let (k, n) = r
@@ -203,28 +198,14 @@ pub fn csv(rows: &[Row]) -> Result<Vec<u8>> {
             k.to_string(),
             n.to_string(),
         ];
-        match &r.pooled {
-            Some(p) => {
-                for e in std::iter::once(p.success).chain(p.metrics) {
-                    // An empty cell for what could not be computed (NaN seconds).
-                    row.extend([e.value, e.lo, e.hi].map(|v| {
-                        if v.is_nan() {
-                            String::new()
-                        } else {
-                            format!("{v:.6}")
-                        }
-                    }));
-                }
-            }
-            None => row.extend(std::iter::repeat_n(String::new(), 3 * (1 + METRICS))),
-        }
+        row.extend(statistic_cells(r.pooled.as_ref()));
         w.write_record(&row).map_err(bad)?;
     }
     w.into_inner()
         .map_err(|e| ReportError::Invalid(format!("frontier.csv: {e}")))
 }
 
-/// Writes `frontier.md` and `frontier.csv` into `out`.
+/// Writes `frontier.md`, `frontier.csv` and `frontier_differences.csv` into `out`.
 pub fn write(root: &Path, out: &Path) -> Result<()> {
     let f = load(root)?;
     let (rows, comparators) = (&f.rows, &f.comparators);
@@ -232,5 +213,9 @@ pub fn write(root: &Path, out: &Path) -> Result<()> {
     std::fs::write(&md_path, markdown(root, rows, comparators, &f.curves))
         .map_err(ReportError::write(&md_path))?;
     std::fs::write(&csv_path, csv(rows)?).map_err(ReportError::write(&csv_path))?;
+    let diff_path = out.join("frontier_differences.csv");
+    let differences = frontier_differences::against_first(rows);
+    std::fs::write(&diff_path, frontier_differences::csv(&differences)?)
+        .map_err(ReportError::write(&diff_path))?;
     Ok(())
 }

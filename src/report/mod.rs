@@ -19,6 +19,7 @@ pub mod bootstrap;
 pub mod data;
 pub mod error;
 pub mod frontier;
+pub mod frontier_differences;
 pub mod frontier_output;
 pub mod frontier_runs;
 pub mod heatmap;

@@ -33,8 +33,12 @@ pub struct Difference {
 /// evaluation; variants without evaluated runs are left out.
 pub fn against_first(rows: &[Row]) -> Vec<Difference> {
     let mut out = Vec::new();
-    let mut evaluations: Vec<&str> = rows.iter().map(|r| r.evaluation.as_str()).collect();
-    evaluations.dedup();
+    let mut evaluations: Vec<&str> = Vec::new();
+    for r in rows {
+        if !evaluations.contains(&r.evaluation.as_str()) {
+            evaluations.push(&r.evaluation);
+        }
+    }
     for evaluation in evaluations {
         let of: Vec<&Row> = rows
             .iter()
@@ -201,9 +205,10 @@ mod tests {
         let rows = [
             row(0, "sampled", &[run(10, 40, 1.0), run(20, 40, 3.0)]),
             row(1, "sampled", &[run(30, 40, 5.0)]),
-            row(2, "sampled", &[]),
             row(0, "deterministic", &[]),
             row(1, "deterministic", &[run(4, 40, 0.0)]),
+            // Out of order: an evaluation's rows need not be adjacent.
+            row(2, "sampled", &[]),
             row(2, "deterministic", &[run(8, 40, 1.0), run(0, 40, 3.0)]),
         ];
         let d = against_first(&rows);

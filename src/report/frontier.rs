@@ -417,6 +417,16 @@ mod tests {
             "{md}"
         );
         assert!(md.contains("| wall-angle:40 | yes | 1/2 = 50 %"), "{md}");
+        // Variant 0 has run in the neighbour and keeps its row; variant 1 has not and has none
+        // in the markdown, but keeps its row in the CSV.
+        assert!(
+            md.contains("| 0 | --steps=8 | neighbours/scale-x0.9 | 1/2 | 100 % ["),
+            "{md}"
+        );
+        assert!(
+            !md.contains("| 1 | --steps=8 --no-pcgrad=true | neighbours/"),
+            "{md}"
+        );
         // Variant 0 (3/4) over variant 1 (0/1), with variant 1's second seed not evaluated.
         assert!(
             md.contains("is **variant 0** (75 % [")
@@ -448,6 +458,10 @@ mod tests {
                 .next()
                 .unwrap()
                 .ends_with("steps,steps_lo,steps_hi,seconds,seconds_lo,seconds_hi")
+        );
+        assert!(
+            csv.contains("\n1,--steps=8 --no-pcgrad=true,neighbours/scale-x0.9,0,2,0,0,"),
+            "{csv}"
         );
         assert!(
             csv.lines()

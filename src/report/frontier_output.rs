@@ -48,6 +48,12 @@ fn pct(e: &Estimate) -> String {
     )
 }
 
+/// Whether the pooled table shows `r`: every sampled and deterministic row, and a neighbour
+/// only where the variant has run in it.
+fn shown(r: &Row) -> bool {
+    !(r.evaluation.starts_with("neighbours/") && r.runs.is_empty())
+}
+
 /// `frontier.md`.
 pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator], curves: &[Curve]) -> String {
     let mut md = format!("# Learning at the frontier: {}\n\n", root.display());
@@ -58,13 +64,14 @@ pub fn markdown(root: &Path, rows: &[Row], comparators: &[Comparator], curves: &
          run's control interval, so that variants with another interval compare) as the mean \
          over seeds of each run's mean. Each comes with its 95 % percentile bootstrap interval \
          over seeds ({DRAWS} resamples). A variant meets the goal when its pooled sampled rate is at least {:.0} % and every constant comparator's is at most \
-         {:.0} %.\n\n",
+         {:.0} %. A neighbour appears only for the variants that have run in it (the protocol \
+         runs the named variant's); `frontier.csv` lists every variant.\n\n",
         100.0 * GOAL,
         100.0 * CONSTANT_BAR
     );
     md += "| variant | overrides | evaluation | runs | success | per seed | progress | energy | smoothness | steps | seconds |\n";
     md += "|---|---|---|---|---|---|---|---|---|---|---|\n";
-    for r in rows {
+    for r in rows.iter().filter(|r| shown(r)) {
         let per_seed: Vec<String> = r
             .runs
             .iter()

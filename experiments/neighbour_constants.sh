@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Constants at the named variant's neighbours (issue 19, item 2; docs/experiments.md, "Constants
+# at the neighbours"). Declared 2026-12-07, before any of it ran: the protocol's neighbour runs
+# give a policy's rate at flow scale x0.9 and x1.1 and thrust x0.75 and x1.25, but no constant
+# was run there with the protocol's seed, so "holds up" could not be told from "the neighbour is
+# easier". This runs `heading:45` at the four neighbours, then `wall-angle:40` (the best
+# constant of the map and the best wall angle), with the neighbours' seed (201), episodes (40)
+# and environments (4), in the frontier scenario (configs/frontier-fine-085.toml) with one
+# change each. It changes nothing in the registered protocol. A finished rollout is kept; one
+# cut off starts again.
+# Usage: bash experiments/neighbour_constants.sh [OUT]
+#   (default runs/frontier-learners/neighbour-constants)
+set -euo pipefail
+here="$(dirname "$0")"
+out=${1:-runs/frontier-learners/neighbour-constants}
+export CHECK_EPISODES=40 CHECK_SEED=201
+declare -A sets=(
+    [scale-x0.9]="inlet.scale=0.765" [scale-x1.1]="inlet.scale=0.935"
+    [thrust-x0.75]="swarm.max_thrust_n=6.375e-7" [thrust-x1.25]="swarm.max_thrust_n=1.0625e-6"
+)
+for policy in heading:45 wall-angle:40; do
+    for change in scale-x0.9 scale-x1.1 thrust-x0.75 thrust-x1.25; do
+        CHECK_POLICIES=$policy bash "$here/frontier_check.sh" configs/frontier-fine-085.toml \
+            "$out/$change" --set "${sets[$change]}"
+    done
+done

@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
-# Constants at the named variant's neighbours (issue 19, item 2; docs/experiments.md, "Constants
-# at the neighbours"). Declared 2026-12-07, before any of it ran: the protocol's neighbour runs
+# Constants at the named variant's neighbours (issue 19, item 2; docs/experiments.md, the bullet
+# "Constants at the neighbours"). Declared 2026-12-07, before any of it ran: the protocol's neighbour runs
 # give a policy's rate at flow scale x0.9 and x1.1 and thrust x0.75 and x1.25, but no constant
 # was run there with the protocol's seed, so "holds up" could not be told from "the neighbour is
-# easier". This runs `heading:45` at the four neighbours, then `wall-angle:40` (the best
-# constant of the map and the best wall angle), with the neighbours' seed (201), episodes (40)
+# easier". This runs `heading:45` at the four neighbours (the constant of the heading band and
+# of the thrust axis), then `wall-angle:40` (the best wall angle), with the neighbours' seed (201), episodes (40)
 # and environments (4), in the frontier scenario (configs/frontier-fine-085.toml) with one
 # change each. It changes nothing in the registered protocol. A finished rollout is kept; one
 # cut off starts again.

@@ -88,3 +88,12 @@ episodes_once() {
 # of one cell (0.1 mm) in x and y, and the CPU backend (the same bits on every machine).
 SCENARIO_SET=(--set inlet.random_phase=true --set env.position_jitter_m=1e-4
     --set solver.backend=native)
+
+# The frontier scenario's four neighbours (issue 19, item 2: flow scale +-10 %, thrust +-25 %):
+# NEIGHBOURS in the order they run, NEIGHBOUR_SET[name] the one --set each changes. The
+# scenario's inlet.scale is 0.85 and its swarm.max_thrust_n 8.5e-7 (configs/frontier-fine-085.toml).
+NEIGHBOURS=(scale-x0.9 scale-x1.1 thrust-x0.75 thrust-x1.25)
+declare -gA NEIGHBOUR_SET=(
+    [scale-x0.9]="inlet.scale=0.765" [scale-x1.1]="inlet.scale=0.935"
+    [thrust-x0.75]="swarm.max_thrust_n=6.375e-7" [thrust-x1.25]="swarm.max_thrust_n=1.0625e-6"
+)

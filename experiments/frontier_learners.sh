@@ -29,7 +29,8 @@
 #   e.g. "3"; the protocol names the variant `report --frontier` ranks best once every run is
 #   evaluated), sampled, 40 episodes at seed 201, at flow scale x0.9 and x1.1 and at F_max x0.75
 #   and x1.25 (`rollout --policy RUN --set`, config::TRANSFER_KEYS). Without FRONTIER_NEIGHBOURS
-#   the stage says so and skips. Output goes to SWEEP_DIR/neighbours/<run>/<change>.
+#   the stage says so and skips. Output goes to SWEEP_DIR/neighbours/<run>/<change>. Each
+#   rollout is locked as an evaluation is, so two processes running this stage share its work.
 # - curve (not in the default list; exploratory, outside the protocol): each done run's policy
 #   snapshots (`train --policy-every`, policies/update-N.safetensors) evaluated sampled at seed
 #   201 with FRONTIER_CURVE_EPISODES (default 16) episodes on 4 environments (only the runs of
@@ -135,26 +136,35 @@ complete() {
     [ -s "$1/episodes.csv" ] && [ "$(($(wc -l <"$1/episodes.csv") - 1))" -ge "${2:-$K}" ]
 }
 
-# eval_once DIR ARGS...: `eval ARGS --episodes N --no-traces --out DIR` (N: FRONTIER_EVAL_N,
-# default K; not common.sh's EVAL_EPISODES, which other experiments use) unless DIR holds N episodes already or another process is evaluating it (it holds DIR.lock, a file that stays;
-# the lock is released when the process exits).
-eval_once() {
-    local dir=$1 lock n=${FRONTIER_EVAL_N:-$K}
-    shift
+# once_locked DIR N VERB ARGS...: `VERB ARGS --envs 4 --episodes N --seed SEED --no-traces
+# --out DIR` (VERB: eval or rollout) unless DIR holds N episodes already or another process is
+# on it (it holds DIR.lock, a file that stays; the lock is released when the process exits), so
+# that two processes running the same stage share its work.
+once_locked() {
+    local dir=$1 n=$2 verb=$3 lock
+    shift 3
     complete "$dir" "$n" && return
     mkdir -p "$(dirname "$dir")"
     exec {lock}>"$dir.lock"
-    flock -n "$lock" || { say "eval $dir: another process is on it"; exec {lock}>&-; return 0; }
+    flock -n "$lock" || { say "$verb $dir: another process is on it"; exec {lock}>&-; return 0; }
     # It may have finished while this process waited to open the lock.
     complete "$dir" "$n" && { exec {lock}>&-; return; }
     rm -rf "$dir"
-    say "eval $dir"
-    fluxswarm eval "$@" --envs 4 --episodes "$n" --seed "$SEED" --no-traces --out "$dir" \
+    say "$verb $dir: $*"
+    fluxswarm "$verb" "$@" --envs 4 --episodes "$n" --seed "$SEED" --no-traces --out "$dir" \
         >/dev/null 2>"$dir.log" ||
-        { say "eval $dir failed: $(tail -1 "$dir.log")"; exec {lock}>&-; return 1; }
+        { say "$verb $dir failed: $(tail -1 "$dir.log")"; exec {lock}>&-; return 1; }
     rm -f "$dir.log"
     exec {lock}>&-
-    complete "$dir" "$n" || { say "eval $dir: fewer than $n episodes written"; return 1; }
+    complete "$dir" "$n" || { say "$verb $dir: fewer than $n episodes written"; return 1; }
+}
+
+# eval_once DIR ARGS...: the evaluation of ARGS into DIR, FRONTIER_EVAL_N episodes (default K;
+# not common.sh's EVAL_EPISODES, which other experiments use), once (once_locked).
+eval_once() {
+    local dir=$1
+    shift
+    once_locked "$dir" "${FRONTIER_EVAL_N:-$K}" eval "$@"
 }
 
 # eval_run RUN: the protocol's two evaluations of the finished run RUN (relative to S; none
@@ -207,19 +217,15 @@ of_points() {
 
 stage_neighbours() {
     local run change
-    local -A sets=(
-        [scale-x0.9]="inlet.scale=0.765" [scale-x1.1]="inlet.scale=0.935"
-        [thrust-x0.75]="swarm.max_thrust_n=6.375e-7" [thrust-x1.25]="swarm.max_thrust_n=1.0625e-6"
-    )
     if [ -z "${FRONTIER_NEIGHBOURS:-}" ]; then
         say "neighbours: skipped; name the variant(s) in FRONTIER_NEIGHBOURS (point indices; the protocol's is the one report --frontier ranks best)"
         return
     fi
     for run in $(done_runs); do
         of_points "$run" "$FRONTIER_NEIGHBOURS" || continue
-        for change in scale-x0.9 scale-x1.1 thrust-x0.75 thrust-x1.25; do
-            episodes_once "$S/neighbours/$(basename "$run")/$change" "$K" \
-                --set "${sets[$change]}" --policy "$S/$run" --envs 4 --seed "$SEED" || true
+        for change in "${NEIGHBOURS[@]}"; do
+            once_locked "$S/neighbours/$(basename "$run")/$change" "$K" rollout \
+                --set "${NEIGHBOUR_SET[$change]}" --policy "$S/$run" || true
         done
     done
 }

@@ -68,14 +68,27 @@ EVAL_ENVS=${EVAL_ENVS:-4}
 EVAL_EPISODES=${EVAL_EPISODES:-8}
 EVAL_SEED=${EVAL_SEED:-1}
 
+# has_episodes DIR N: DIR holds N finished episodes (episodes.csv with N rows).
+has_episodes() {
+    [ -s "$1/episodes.csv" ] && [ "$(($(wc -l <"$1/episodes.csv") - 1))" -ge "$2" ]
+}
+
+# copy_complete SRC DST N [FILE...]: SRC's config.toml and episodes.csv, and each FILE named,
+# into DST when SRC holds N episodes; nothing when it holds fewer.
+copy_complete() {
+    local src=$1 dst=$2 n=$3 f
+    shift 3
+    has_episodes "$src" "$n" || return 0
+    mkdir -p "$dst"
+    for f in config.toml episodes.csv "$@"; do cp "$src/$f" "$dst/"; done
+}
+
 # episodes_once DIR K ARGS...: `rollout ARGS --episodes K --no-traces --out DIR` unless DIR
 # already holds all K episodes (episodes.csv with K rows).
 episodes_once() {
     local dir=$1 k=$2
     shift 2
-    if [ -s "$dir/episodes.csv" ] && [ "$(($(wc -l <"$dir/episodes.csv") - 1))" -ge "$k" ]; then
-        return
-    fi
+    has_episodes "$dir" "$k" && return
     rm -rf "$dir"
     mkdir -p "$(dirname "$dir")"
     say "rollout $dir: $*"

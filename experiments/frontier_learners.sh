@@ -131,11 +131,6 @@ stage_train() {
     done
 }
 
-# complete DIR [N]: DIR holds N (default K) finished episodes.
-complete() {
-    [ -s "$1/episodes.csv" ] && [ "$(($(wc -l <"$1/episodes.csv") - 1))" -ge "${2:-$K}" ]
-}
-
 # once_locked DIR N VERB ARGS...: `VERB ARGS --envs 4 --episodes N --seed SEED --no-traces
 # --out DIR` (VERB: eval or rollout) unless DIR holds N episodes already or another process is
 # on it (it holds DIR.lock, a file that stays; the lock is released when the process exits), so
@@ -143,12 +138,12 @@ complete() {
 once_locked() {
     local dir=$1 n=$2 verb=$3 lock
     shift 3
-    complete "$dir" "$n" && return
+    has_episodes "$dir" "$n" && return
     mkdir -p "$(dirname "$dir")"
     exec {lock}>"$dir.lock"
     flock -n "$lock" || { say "$verb $dir: another process is on it"; exec {lock}>&-; return 0; }
     # It may have finished while this process waited to open the lock.
-    complete "$dir" "$n" && { exec {lock}>&-; return; }
+    has_episodes "$dir" "$n" && { exec {lock}>&-; return; }
     rm -rf "$dir"
     say "$verb $dir: $*"
     fluxswarm "$verb" "$@" --envs 4 --episodes "$n" --seed "$SEED" --no-traces --out "$dir" \
@@ -156,7 +151,7 @@ once_locked() {
         { say "$verb $dir failed: $(tail -1 "$dir.log")"; exec {lock}>&-; return 1; }
     rm -f "$dir.log"
     exec {lock}>&-
-    complete "$dir" "$n" || { say "$verb $dir: fewer than $n episodes written"; return 1; }
+    has_episodes "$dir" "$n" || { say "$verb $dir: fewer than $n episodes written"; return 1; }
 }
 
 # eval_once DIR ARGS...: the evaluation of ARGS into DIR, FRONTIER_EVAL_N episodes (default K;
@@ -192,8 +187,8 @@ stage_eval-follow() {
         stage_eval
         left=$(awk -F, 'NR > 1 && ($3 == "pending" || $3 == "running")' "$S/sweep.csv" | wc -l)
         for run in $(done_runs); do
-            complete "$S/eval/$(basename "$run")/sampled" &&
-                complete "$S/eval/$(basename "$run")/deterministic" || left=$((left + 1))
+            has_episodes "$S/eval/$(basename "$run")/sampled" "$K" &&
+                has_episodes "$S/eval/$(basename "$run")/deterministic" "$K" || left=$((left + 1))
         done
         [ "$left" -gt 0 ] || break
         sleep 300
@@ -248,15 +243,6 @@ stage_report() {
     say "report: $S/report/frontier.md"
 }
 
-# copy_complete SRC DST [N]: SRC's config.toml and episodes.csv into DST when SRC holds N
-# (default K) episodes.
-copy_complete() {
-    local src=$1 dst=$2
-    complete "$src" "${3:-$K}" || return 0
-    mkdir -p "$dst"
-    cp "$src/config.toml" "$src/episodes.csv" "$dst/"
-}
-
 stage_results() {
     local R=${FRONTIER_RESULTS:-assets/results/frontier_learners} run d f
     mkdir -p "$R"
@@ -277,7 +263,7 @@ stage_results() {
         done
     done
     for d in "$S"/eval/*/* "$S"/neighbours/*/* "$S"/comparators/*; do
-        [ -d "$d" ] && copy_complete "$d" "$R/${d#"$S"/}"
+        [ -d "$d" ] && copy_complete "$d" "$R/${d#"$S"/}" "$K"
     done
     for d in "$S"/curve/*/*; do
         [ -d "$d" ] && copy_complete "$d" "$R/${d#"$S"/}" "$KC"
@@ -305,7 +291,7 @@ stage_restore() {
         n=$((n + 1))
     done < <(awk -F, 'NR > 1 && $3 == "done" { print $4 "|" $(NF-3) "|" $(NF-2) "|" $(NF-1) "|" $NF }' "$R/sweep.csv")
     for d in "$R"/eval/*/* "$R"/neighbours/*/* "$R"/comparators/*; do
-        [ -e "$S/${d#"$R"/}" ] || copy_complete "$d" "$S/${d#"$R"/}"
+        [ -e "$S/${d#"$R"/}" ] || copy_complete "$d" "$S/${d#"$R"/}" "$K"
     done
     for d in "$R"/curve/*/*; do
         [ -e "$S/${d#"$R"/}" ] || copy_complete "$d" "$S/${d#"$R"/}" "$KC"

@@ -18,9 +18,8 @@ out=${1:-runs/frontier-learners/neighbour-constants}
 export CHECK_EPISODES=40 CHECK_SEED=201
 kept="$ROOT/assets/results/frontier_learners/neighbour_constants"
 for kept_run in "$kept"/*/*; do
-    [ -d "$kept_run" ] || continue
-    [ -e "$out/${kept_run#"$kept"/}" ] ||
-        copy_complete "$kept_run" "$out/${kept_run#"$kept"/}" "$CHECK_EPISODES" starts.csv
+    rel=${kept_run#"$kept"/}
+    [ -e "$out/$rel" ] || copy_complete "$kept_run" "$out/$rel" "$CHECK_EPISODES" starts.csv
 done
 # Both constants in one check per neighbour, so that the check's closing `map` reads only
 # finished rollouts (a rollout cut off is redone before it).
